@@ -13,6 +13,7 @@
 //!   calibrated at a few pan angles, interpolated along the fitted circle), over a
 //!   [`PanRange`] with limits;
 //! - [`fit_ring`]: the turntable frame of a dataset whose cameras lie on a ring;
+//! - [`Aabb`]: axis-aligned boxes (reconstruction volumes, ground-truth bounds);
 //! - [`readers`]: Middlebury `*_par.txt` / `*_ang.txt` and files of 3x4 matrices.
 //!
 //! ```
@@ -53,6 +54,7 @@
 //!   `[-0.5, w - 0.5) x [-0.5, h - 0.5)`.
 //! - Geometry is `f64` throughout.
 
+pub mod aabb;
 pub mod angle;
 pub mod camera;
 pub mod distortion;
@@ -64,6 +66,7 @@ pub mod ring;
 pub mod turntable;
 pub mod undistort;
 
+pub use aabb::Aabb;
 pub use angle::{Angle, PanRange};
 pub use camera::{Camera, Ray};
 pub use distortion::Distortion;
