@@ -95,6 +95,7 @@ fn label(seed: u64) -> Texture {
         cell_m: 0.008,
         seed,
     }
+    .grainy(0.6, seed + 100)
 }
 
 fn matte(texture: Texture) -> Material {
@@ -162,17 +163,21 @@ pub fn head() -> Result<Scene> {
             feature_m: 0.012,
             octaves: 4,
             seed: 5,
-        },
+        }
+        .grainy(0.6, 105),
         specular: 0.6,
         shininess: 60.0,
     };
-    let stone = matte(Texture::Noise {
-        low: rgb8(60, 60, 70),
-        high: rgb8(200, 200, 190),
-        feature_m: 0.01,
-        octaves: 3,
-        seed: 6,
-    });
+    let stone = matte(
+        Texture::Noise {
+            low: rgb8(60, 60, 70),
+            high: rgb8(200, 200, 190),
+            feature_m: 0.01,
+            octaves: 3,
+            seed: 6,
+        }
+        .grainy(0.6, 106),
+    );
     studio_scene(
         "head",
         vec![
@@ -195,7 +200,8 @@ pub fn chair() -> Result<Scene> {
             feature_m: 0.006,
             octaves: 4,
             seed: 8,
-        },
+        }
+        .grainy(0.6, 108),
         specular: 0.15,
         shininess: 20.0,
     };
@@ -243,22 +249,28 @@ pub fn lambertian() -> Result<Scene> {
                 [0.0, 0.0, 0.06],
                 0.045,
                 0.07,
-                matte(Texture::Noise {
-                    low: rgb8(20, 60, 120),
-                    high: rgb8(220, 210, 120),
-                    feature_m: 0.01,
-                    octaves: 4,
-                    seed: 4,
-                }),
+                matte(
+                    Texture::Noise {
+                        low: rgb8(20, 60, 120),
+                        high: rgb8(220, 210, 120),
+                        feature_m: 0.01,
+                        octaves: 4,
+                        seed: 4,
+                    }
+                    .grainy(0.6, 104),
+                ),
             ),
             ellipsoid(
                 [0.0, 0.0, 0.165],
                 [0.03, 0.03, 0.03],
-                matte(Texture::Checker {
-                    a: rgb8(200, 60, 60),
-                    b: rgb8(240, 240, 230),
-                    square_m: 0.012,
-                }),
+                matte(
+                    Texture::Checker {
+                        a: rgb8(200, 60, 60),
+                        b: rgb8(240, 240, 230),
+                        square_m: 0.012,
+                    }
+                    .grainy(0.6, 110),
+                ),
             ),
         ],
     )

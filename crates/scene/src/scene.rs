@@ -112,6 +112,19 @@ pub struct SceneRig {
 }
 
 impl SceneRig {
+    /// `n` pan angles spread evenly over the pan range, both limits included (one view: the
+    /// middle of the range).
+    pub fn uniform_pans(&self, n: usize) -> Vec<Angle> {
+        let (min, span) = (self.pan_range.min(), self.pan_range.span());
+        match n {
+            0 => Vec::new(),
+            1 => vec![min + span * 0.5],
+            _ => (0..n)
+                .map(|i| min + span * (i as f64 / (n - 1) as f64))
+                .collect(),
+        }
+    }
+
     /// The rig camera at pan angle `pan`.
     pub fn camera(&self, pan: Angle) -> Result<Camera> {
         Ok(Camera::new(
@@ -270,13 +283,31 @@ impl Scene {
         count: usize,
         seed: u64,
     ) -> Result<Vec<(Point3<f64>, Vector3<f64>)>> {
-        let cameras: Vec<Camera> = (0..72)
-            .map(|i| {
-                let range = self.rig.pan_range;
-                let pan = range.min() + range.span() * (i as f64 / 71.0);
-                self.camera(pan)
-            })
+        let cameras: Vec<Camera> = self
+            .rig
+            .uniform_pans(72)
+            .into_iter()
+            .map(|pan| self.camera(pan))
             .collect::<Result<_>>()?;
+        Ok(self.sample_surface(count, seed, Some(&cameras)))
+    }
+
+    /// Points spread uniformly over the whole exposed surface (inside no other object),
+    /// seen or not: the reference surface for the accuracy of a reconstruction.
+    pub fn exposed_surface_samples(
+        &self,
+        count: usize,
+        seed: u64,
+    ) -> Vec<(Point3<f64>, Vector3<f64>)> {
+        self.sample_surface(count, seed, None)
+    }
+
+    fn sample_surface(
+        &self,
+        count: usize,
+        seed: u64,
+        cameras: Option<&[Camera]>,
+    ) -> Vec<(Point3<f64>, Vector3<f64>)> {
         let areas: Vec<f64> = self.objects.iter().map(|o| o.shape.area()).collect();
         let total: f64 = areas.iter().sum();
         let mut rng = SplitMix64::new(seed);
@@ -298,6 +329,10 @@ impl Scene {
             if self.inside(&p, 1e-6) {
                 continue;
             }
+            let Some(cameras) = cameras else {
+                out.push((p, n));
+                continue;
+            };
             let seen = cameras.iter().any(|cam| {
                 let c = cam.centre();
                 let to_cam = c - p;
@@ -309,7 +344,7 @@ impl Scene {
                 out.push((p, n));
             }
         }
-        Ok(out)
+        out
     }
 
     /// The lab-from-world rotation for a camera (see the conventions above).

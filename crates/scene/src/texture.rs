@@ -41,6 +41,20 @@ pub enum Texture {
         /// Edge of a cube, metres.
         square_m: f64,
     },
+    /// Another texture with fine multiplicative grain: the colour is scaled by
+    /// `1 + amplitude (n - 1/2)` with `n` two-octave noise of `feature_m` metres. Real
+    /// surfaces carry detail at every scale; grain gives colour consistency something to
+    /// lock onto at the scale of a voxel.
+    Grain {
+        /// The texture underneath.
+        base: Box<Texture>,
+        /// Strength of the grain (0 to 1).
+        amplitude: f32,
+        /// Size of the grain, metres.
+        feature_m: f64,
+        /// Seed of the noise.
+        seed: u64,
+    },
     /// Cells of `cell_m` metres, each a colour from `palette`, shaded by fine noise: sharp
     /// edges and strong colour changes, like a printed label.
     Patchwork {
@@ -54,6 +68,16 @@ pub enum Texture {
 }
 
 impl Texture {
+    /// This texture with [`Texture::Grain`] of the given strength at 2.5 mm.
+    pub fn grainy(self, amplitude: f32, seed: u64) -> Texture {
+        Texture::Grain {
+            base: Box::new(self),
+            amplitude,
+            feature_m: 0.0025,
+            seed,
+        }
+    }
+
     /// The albedo at `p` (object frame).
     pub fn colour_at(&self, p: &Point3<f64>) -> Colour {
         match self {
@@ -67,6 +91,15 @@ impl Texture {
             } => {
                 let t = fbm(&(p.coords / *feature_m), *octaves, *seed) as f32;
                 low + (high - low) * t
+            }
+            Texture::Grain {
+                base,
+                amplitude,
+                feature_m,
+                seed,
+            } => {
+                let n = fbm(&(p.coords / *feature_m), 2, *seed) as f32;
+                base.colour_at(p) * (1.0 + amplitude * (n - 0.5))
             }
             Texture::Checker { a, b, square_m } => {
                 let c = p.coords / *square_m;

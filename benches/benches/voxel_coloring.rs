@@ -1,0 +1,71 @@
+//! Voxel coloring benches (group `voxel_coloring`): the `lambertian` scene, 48 views of
+//! 640x480 spread over the pan range, ground-truth masks; entries `128` and `256` (voxels
+//! along the longest edge), and the scalar reference at 128 as the naive baseline.
+//!
+//! `cargo bench -p aibr-benches --bench voxel_coloring`
+
+// criterion's macros generate undocumented public items.
+#![allow(missing_docs)]
+
+use aibr_scene::{RenderOptions, catalogue};
+use aibr_voxel::{ColoringParams, View, VoxelGrid, voxel_coloring, voxel_coloring_reference};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+
+fn bench(c: &mut Criterion) {
+    let Ok(scene) = catalogue::lambertian() else {
+        return;
+    };
+    let options = RenderOptions {
+        noise_sigma: 1.0 / 255.0,
+        seed: 1,
+    };
+    let Ok(cameras) = scene
+        .rig
+        .uniform_pans(48)
+        .into_iter()
+        .map(|p| scene.camera(p))
+        .collect::<Result<Vec<_>, _>>()
+    else {
+        return;
+    };
+    let Ok(frames) = cameras
+        .iter()
+        .map(|cam| scene.render(cam, &options))
+        .collect::<Result<Vec<_>, _>>()
+    else {
+        return;
+    };
+    let images: Vec<_> = frames.iter().map(|f| f.rgb8()).collect();
+    let views: Vec<View<'_>> = cameras
+        .iter()
+        .zip(&images)
+        .zip(&frames)
+        .map(|((camera, image), f)| View {
+            camera,
+            image,
+            mask: Some(&f.mask),
+        })
+        .collect();
+    let params = ColoringParams::default();
+    let mut g = c.benchmark_group("voxel_coloring");
+    g.sample_size(10);
+    for resolution in [128usize, 256] {
+        let Ok(grid) = VoxelGrid::with_resolution(scene.bounds(), resolution) else {
+            continue;
+        };
+        g.throughput(Throughput::Elements(grid.len() as u64));
+        g.bench_function(resolution.to_string(), |b| {
+            b.iter(|| voxel_coloring(&grid, &views, &params))
+        });
+    }
+    if let Ok(grid) = VoxelGrid::with_resolution(scene.bounds(), 128) {
+        g.throughput(Throughput::Elements(grid.len() as u64));
+        g.bench_function("reference_128", |b| {
+            b.iter(|| voxel_coloring_reference(&grid, &views, &params))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

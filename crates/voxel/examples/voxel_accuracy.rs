@@ -1,0 +1,98 @@
+//! Accuracy and completeness of voxel coloring on every catalogue scene, both criteria.
+//!
+//! `cargo run --release -p aibr-voxel --example voxel_accuracy -- [RESOLUTION] [VIEWS] [SCENE...]`
+//! (defaults: 128, 48, every catalogue scene). Views are spread uniformly over the pan range;
+//! the ground-truth masks are used as silhouettes.
+
+use aibr_scene::{RenderOptions, catalogue};
+use aibr_voxel::metrics::geometry_score;
+use aibr_voxel::{ColoringParams, Criterion, View, VoxelGrid, voxel_coloring};
+use nalgebra::Point3;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let resolution: usize = args.first().map_or(Ok(128), |a| a.parse())?;
+    let n_views: usize = args.get(1).map_or(Ok(48), |a| a.parse())?;
+    let names: Vec<String> = if args.len() > 2 {
+        args[2..].to_vec()
+    } else {
+        catalogue::SCENE_NAMES
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    };
+    println!(
+        "| scene | criterion | accuracy (voxels, 90%) | completeness (1.5 voxels) | surface voxels | coloring (ms) |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for name in &names {
+        let scene = catalogue::by_name(name)?;
+        let options = RenderOptions {
+            noise_sigma: 1.0 / 255.0,
+            seed: 1,
+        };
+        let cameras: Vec<_> = scene
+            .rig
+            .uniform_pans(n_views)
+            .into_iter()
+            .map(|p| scene.camera(p))
+            .collect::<Result<_, _>>()?;
+        let frames: Vec<_> = cameras
+            .iter()
+            .map(|c| scene.render(c, &options))
+            .collect::<Result<_, _>>()?;
+        let images: Vec<_> = frames.iter().map(|f| f.rgb8()).collect();
+        let views: Vec<View<'_>> = cameras
+            .iter()
+            .zip(&images)
+            .zip(&frames)
+            .map(|((camera, image), f)| View {
+                camera,
+                image,
+                mask: Some(&f.mask),
+            })
+            .collect();
+        let surface: Vec<Point3<f64>> = scene
+            .exposed_surface_samples(400_000, 7)
+            .into_iter()
+            .map(|(p, _)| p)
+            .collect();
+        let visible: Vec<Point3<f64>> = scene
+            .surface_samples(50_000, 8)?
+            .into_iter()
+            .map(|(p, _)| p)
+            .collect();
+        let grid = VoxelGrid::with_resolution(scene.bounds(), resolution)?;
+        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+        let angular = match (env("THRESH"), env("WINDOW")) {
+            (Some(t), Some(w)) => Criterion::Angular {
+                threshold: t as f32,
+                window: aibr_camera::Angle::from_degrees(w),
+            },
+            _ => Criterion::angular(),
+        };
+        let classic = env("CTHRESH").map_or(Criterion::classic(), |t| Criterion::Classic {
+            threshold: t as f32,
+        });
+        for (label, criterion) in [("angular", angular), ("classic", classic)] {
+            let mut params = ColoringParams {
+                criterion,
+                ..ColoringParams::default()
+            };
+            if let Some(m) = env("MINV") {
+                params.min_views = m as usize;
+            }
+            let start = std::time::Instant::now();
+            let out = voxel_coloring(&grid, &views, &params)?;
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            let score = geometry_score(&out.model, &surface, &visible);
+            println!(
+                "| {name} | {label} | {:.2} | {:.1}% | {} | {ms:.0} |",
+                score.accuracy_voxels,
+                100.0 * score.completeness,
+                score.surface_voxels
+            );
+        }
+    }
+    Ok(())
+}

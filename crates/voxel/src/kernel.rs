@@ -1,0 +1,619 @@
+//! Pieces shared by the voxel kernels: views, projection of voxel footprints, pixel
+//! gathering and the consistency criteria.
+//!
+//! Every kernel (fast or reference) computes a voxel's projection with the same operations
+//! in the same order (`row_base + inc * i`, f32), presents the per-view samples in view order,
+//! and decides with [`decide`]; so the fast and reference paths agree voxel for voxel.
+
+use aibr_camera::{Angle, Camera};
+use image::{GrayImage, RgbImage};
+use nalgebra::{Point3, Vector3};
+
+use crate::error::{Error, Result};
+use crate::grid::VoxelGrid;
+
+/// One input view: a pinhole camera, its image and optionally its foreground mask.
+#[derive(Debug, Clone, Copy)]
+pub struct View<'a> {
+    /// The camera (no lens distortion: undistort the image first).
+    pub camera: &'a Camera,
+    /// The image.
+    pub image: &'a RgbImage,
+    /// Foreground mask (non-zero = object), same size as the image.
+    pub mask: Option<&'a GrayImage>,
+}
+
+/// How a voxel's per-view colours are judged consistent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Criterion {
+    /// Seitz-Dyer: the standard deviation of the per-view colours (RMS over R, G, B, in
+    /// 8-bit grey levels) is at most `threshold`.
+    Classic {
+        /// Largest standard deviation, grey levels.
+        threshold: f32,
+    },
+    /// The paper's non-Lambertian criterion: rays from one surface point need agree only
+    /// where their emission angles are close. Over all pairs of views whose directions from
+    /// the voxel are within `window` of each other, the mean RMS colour difference is at most
+    /// `threshold`. With no such pair, all pairs are compared.
+    Angular {
+        /// Largest mean RMS difference of neighbouring views, grey levels.
+        threshold: f32,
+        /// Angular neighbourhood.
+        window: Angle,
+    },
+}
+
+impl Criterion {
+    /// The classic criterion with its default threshold (25 grey levels).
+    pub fn classic() -> Self {
+        Criterion::Classic { threshold: 25.0 }
+    }
+
+    /// The angular criterion with its defaults (20 grey levels within 30 degrees).
+    pub fn angular() -> Self {
+        Criterion::Angular {
+            threshold: 20.0,
+            window: Angle::from_degrees(30.0),
+        }
+    }
+}
+
+impl Default for Criterion {
+    /// [`Criterion::angular`], the paper's.
+    fn default() -> Self {
+        Criterion::angular()
+    }
+}
+
+/// Checks sizes and distortion of the views.
+pub(crate) fn validate_views(views: &[View<'_>], needed: usize) -> Result<()> {
+    if views.len() < needed {
+        return Err(Error::TooFewViews {
+            found: views.len(),
+            needed,
+        });
+    }
+    for (i, v) in views.iter().enumerate() {
+        let size = v.camera.size;
+        if !v.camera.distortion.is_none() {
+            return Err(Error::Distorted { view: i });
+        }
+        let check = |what, w: u32, h: u32| {
+            if (w, h) != (size.width, size.height) {
+                return Err(Error::ViewSize {
+                    view: i,
+                    what,
+                    width: w,
+                    height: h,
+                    expected_width: size.width,
+                    expected_height: size.height,
+                });
+            }
+            Ok(())
+        };
+        check("image", v.image.width(), v.image.height())?;
+        if let Some(m) = v.mask {
+            check("mask", m.width(), m.height())?;
+        }
+    }
+    Ok(())
+}
+
+/// The pixels `[u0, u1] x [v0, v1]` (inclusive) a voxel covers in one view.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Footprint {
+    pub(crate) u0: u32,
+    pub(crate) u1: u32,
+    pub(crate) v0: u32,
+    pub(crate) v1: u32,
+}
+
+/// Projection of voxels of one grid into one view.
+#[derive(Debug, Clone)]
+pub(crate) struct Projector {
+    /// `P = K [R | t]`, f64 for row bases.
+    p: [[f64; 4]; 3],
+    /// `P[:, 0] * voxel_size`: the step of the homogeneous projection along +x.
+    inc: [f32; 3],
+    /// Half the projected voxel edge at unit depth, pixels.
+    half: f32,
+    width: i32,
+    height: i32,
+    /// Camera centre, world.
+    pub(crate) centre: Point3<f64>,
+}
+
+impl Projector {
+    pub(crate) fn new(camera: &Camera, grid: &VoxelGrid) -> Self {
+        let m = camera.projection_matrix();
+        let mut p = [[0.0; 4]; 3];
+        for (r, row) in p.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v = m[(r, c)];
+            }
+        }
+        let s = grid.voxel_size();
+        let k = camera.intrinsics;
+        Projector {
+            inc: [
+                (p[0][0] * s) as f32,
+                (p[1][0] * s) as f32,
+                (p[2][0] * s) as f32,
+            ],
+            half: (0.5 * s * k.fx.max(k.fy)) as f32,
+            p,
+            width: camera.size.width as i32,
+            height: camera.size.height as i32,
+            centre: camera.centre(),
+        }
+    }
+
+    /// Homogeneous projection of a world point.
+    #[inline]
+    pub(crate) fn project_point(&self, x: &Point3<f64>) -> [f32; 3] {
+        let r = |row: &[f64; 4]| (row[0] * x.x + row[1] * x.y + row[2] * x.z + row[3]) as f32;
+        [r(&self.p[0]), r(&self.p[1]), r(&self.p[2])]
+    }
+
+    /// Homogeneous projection of the centre of voxel `[0, j, k]`.
+    #[inline]
+    pub(crate) fn row_base(&self, grid: &VoxelGrid, j: usize, k: usize) -> [f32; 3] {
+        self.project_point(&grid.centre([0, j, k]))
+    }
+
+    /// Homogeneous projection of voxel `i` of a row with base `base`.
+    #[inline]
+    pub(crate) fn along_row(&self, base: &[f32; 3], i: usize) -> [f32; 3] {
+        let f = i as f32;
+        [
+            base[0] + self.inc[0] * f,
+            base[1] + self.inc[1] * f,
+            base[2] + self.inc[2] * f,
+        ]
+    }
+
+    /// The footprint of a voxel whose centre projects to `h`, clipped to the image; `None`
+    /// when it is behind the camera or wholly off the image.
+    #[inline]
+    pub(crate) fn footprint(&self, h: [f32; 3]) -> Option<Footprint> {
+        if !(h[2] > 0.0) {
+            return None;
+        }
+        let inv = 1.0 / h[2];
+        let (u, v, r) = (h[0] * inv, h[1] * inv, self.half * inv);
+        self.clip(round(u - r), round(u + r), round(v - r), round(v + r))
+    }
+
+    #[inline]
+    fn clip(&self, u0: i32, u1: i32, v0: i32, v1: i32) -> Option<Footprint> {
+        if u1 < 0 || v1 < 0 || u0 >= self.width || v0 >= self.height {
+            return None;
+        }
+        Some(Footprint {
+            u0: u0.max(0) as u32,
+            u1: u1.min(self.width - 1) as u32,
+            v0: v0.max(0) as u32,
+            v1: v1.min(self.height - 1) as u32,
+        })
+    }
+
+    /// A pixel rectangle holding the footprint of every voxel `[i0..i1) x [j0..j1)` of layer
+    /// `k` (from its corner centres, widened by a pixel against rounding): `Ok(None)` when
+    /// every footprint is off the image, `Err(())` when the bound is unknown (the block
+    /// reaches behind the camera).
+    pub(crate) fn block_bounds(
+        &self,
+        grid: &VoxelGrid,
+        (i0, i1): (usize, usize),
+        (j0, j1): (usize, usize),
+        k: usize,
+    ) -> Result<Option<Footprint>, ()> {
+        let corners = [(i0, j0), (i1 - 1, j0), (i0, j1 - 1), (i1 - 1, j1 - 1)];
+        let (mut ulo, mut uhi, mut vlo, mut vhi) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
+        let mut wmin = f32::MAX;
+        for (i, j) in corners {
+            let h = self.project_point(&grid.centre([i, j, k]));
+            if !(h[2] > 0.0) {
+                return Err(());
+            }
+            let (u, v) = (h[0] / h[2], h[1] / h[2]);
+            ulo = ulo.min(u);
+            uhi = uhi.max(u);
+            vlo = vlo.min(v);
+            vhi = vhi.max(v);
+            wmin = wmin.min(h[2]);
+        }
+        // The homogeneous w is affine over the block, so its minimum is at a corner, and the
+        // largest footprint radius is the one there.
+        let r = self.half / wmin + 1.0;
+        Ok(self.clip(
+            round(ulo - r),
+            round(uhi + r),
+            round(vlo - r),
+            round(vhi + r),
+        ))
+    }
+}
+
+/// Edge of the square tiles that summarise masks and claims, pixels.
+pub(crate) const TILE: u32 = 8;
+
+/// `floor(x + 0.5)` without libm's `floorf` (baseline x86-64 has no rounding instruction):
+/// shifted by 1024 so that truncation floors every coordinate above -1024 px; footprints
+/// further off the image are rejected by the clipping either way.
+#[inline]
+fn round(x: f32) -> i32 {
+    (x + 1024.5) as i32 - 1024
+}
+
+/// Raw pixels of one view, for fast access.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Pixels<'a> {
+    pub(crate) rgb: &'a [u8],
+    pub(crate) mask: Option<&'a [u8]>,
+    pub(crate) width: usize,
+}
+
+impl<'a> Pixels<'a> {
+    pub(crate) fn of(view: &View<'a>) -> Self {
+        Pixels {
+            rgb: view.image.as_raw(),
+            mask: view.mask.map(|m| m.as_raw().as_slice()),
+            width: view.image.width() as usize,
+        }
+    }
+
+    pub(crate) fn height(&self) -> usize {
+        self.rgb.len() / 3 / self.width.max(1)
+    }
+
+    /// True when every footprint pixel is background (false without a mask).
+    #[inline]
+    pub(crate) fn all_background(&self, fp: &Footprint) -> bool {
+        let Some(mask) = self.mask else { return false };
+        for v in fp.v0..=fp.v1 {
+            let row = v as usize * self.width;
+            for u in fp.u0..=fp.u1 {
+                if mask[row + u as usize] != 0 {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Sum and count of the footprint pixels not yet claimed (and foreground, with a mask).
+    #[inline]
+    pub(crate) fn gather(&self, fp: &Footprint, claimed: &[u8]) -> ([u32; 3], u32) {
+        let mut sum = [0u32; 3];
+        let mut n = 0u32;
+        for v in fp.v0..=fp.v1 {
+            let row = v as usize * self.width;
+            for u in fp.u0..=fp.u1 {
+                let i = row + u as usize;
+                if claimed[i] != 0 || self.mask.is_some_and(|m| m[i] == 0) {
+                    continue;
+                }
+                let c = &self.rgb[3 * i..3 * i + 3];
+                sum[0] += c[0] as u32;
+                sum[1] += c[1] as u32;
+                sum[2] += c[2] as u32;
+                n += 1;
+            }
+        }
+        (sum, n)
+    }
+}
+
+/// Per-tile summaries of one view (tiles of [`TILE`] x [`TILE`] pixels), small enough to
+/// stay in cache: exact shortcuts for the mask and claim tests.
+#[derive(Debug, Clone)]
+pub(crate) struct Tiles {
+    pub(crate) cols: usize,
+    /// Per tile: 0 = every pixel background, 2 = every pixel foreground, 1 = mixed (no mask:
+    /// all 2).
+    pub(crate) mask: Vec<u8>,
+    /// Per tile: 1 when every pixel is claimed or background (so no voxel can gather from
+    /// the tile any more).
+    pub(crate) full: Vec<u8>,
+    /// Per tile: pixels claimed or background so far, and pixels in the tile.
+    resolved: Vec<u16>,
+    area: Vec<u16>,
+}
+
+impl Tiles {
+    pub(crate) fn new(px: &Pixels<'_>) -> Self {
+        let (w, h) = (px.width, px.height());
+        let t = TILE as usize;
+        let (cols, rows) = (w.div_ceil(t), h.div_ceil(t));
+        let mut mask = vec![2u8; cols * rows];
+        let mut resolved = vec![0u16; cols * rows];
+        if let Some(m) = px.mask {
+            for ty in 0..rows {
+                for tx in 0..cols {
+                    let (mut fg, mut bg) = (false, false);
+                    for y in ty * t..((ty + 1) * t).min(h) {
+                        for x in tx * t..((tx + 1) * t).min(w) {
+                            if m[y * w + x] != 0 {
+                                fg = true;
+                            } else {
+                                bg = true;
+                                resolved[ty * cols + tx] += 1;
+                            }
+                        }
+                    }
+                    mask[ty * cols + tx] = match (fg, bg) {
+                        (false, _) => 0,
+                        (true, false) => 2,
+                        (true, true) => 1,
+                    };
+                }
+            }
+        }
+        let area: Vec<u16> = (0..rows)
+            .flat_map(|ty| {
+                (0..cols).map(move |tx| {
+                    let tw = ((tx + 1) * t).min(w) - tx * t;
+                    let th = ((ty + 1) * t).min(h) - ty * t;
+                    (tw * th) as u16
+                })
+            })
+            .collect();
+        let full = resolved
+            .iter()
+            .zip(&area)
+            .map(|(r, a)| u8::from(r == a))
+            .collect();
+        Tiles {
+            cols,
+            full,
+            resolved,
+            area,
+            mask,
+        }
+    }
+
+    #[inline]
+    fn range(fp: &Footprint) -> (usize, usize, usize, usize) {
+        (
+            (fp.u0 / TILE) as usize,
+            (fp.u1 / TILE) as usize,
+            (fp.v0 / TILE) as usize,
+            (fp.v1 / TILE) as usize,
+        )
+    }
+
+    /// Exact: every footprint pixel is background (false without a mask).
+    #[inline]
+    pub(crate) fn all_background(&self, px: &Pixels<'_>, fp: &Footprint) -> bool {
+        if px.mask.is_none() {
+            return false;
+        }
+        let (tx0, tx1, ty0, ty1) = Self::range(fp);
+        let mut mixed = false;
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                match self.mask[ty * self.cols + tx] {
+                    2 => return false,
+                    1 => mixed = true,
+                    _ => {}
+                }
+            }
+        }
+        !mixed || px.all_background(fp)
+    }
+
+    /// What the mask says of every pixel of `fp`: 0 all background, 2 all foreground,
+    /// 1 unknown from the tiles.
+    #[inline]
+    pub(crate) fn mask_class(&self, fp: &Footprint) -> u8 {
+        let (tx0, tx1, ty0, ty1) = Self::range(fp);
+        let (mut any_bg, mut any_other) = (false, false);
+        let mut all_fg = true;
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                match self.mask[ty * self.cols + tx] {
+                    0 => {
+                        any_bg = true;
+                        all_fg = false;
+                    }
+                    2 => any_other = true,
+                    _ => {
+                        all_fg = false;
+                        any_other = true;
+                    }
+                }
+            }
+        }
+        if all_fg {
+            2
+        } else if any_bg && !any_other {
+            0
+        } else {
+            1
+        }
+    }
+
+    /// Exact: every footprint pixel is claimed or background (it has nothing to gather).
+    #[inline]
+    pub(crate) fn all_claimed(&self, fp: &Footprint) -> bool {
+        let (tx0, tx1, ty0, ty1) = Self::range(fp);
+        (ty0..=ty1).all(|ty| (tx0..=tx1).all(|tx| self.full[ty * self.cols + tx] != 0))
+    }
+
+    /// Claims the pixels of `fp`, keeping the tile summaries up to date.
+    pub(crate) fn claim(&mut self, px: &Pixels<'_>, claimed: &mut [u8], fp: &Footprint) {
+        for v in fp.v0..=fp.v1 {
+            let row = v as usize * px.width;
+            let tile_row = (v / TILE) as usize * self.cols;
+            for u in fp.u0..=fp.u1 {
+                let i = row + u as usize;
+                if claimed[i] == 0 {
+                    claimed[i] = 1;
+                    // Background pixels were counted as resolved from the start.
+                    if px.mask.is_none_or(|m| m[i] != 0) {
+                        let t = tile_row + (u / TILE) as usize;
+                        self.resolved[t] += 1;
+                        if self.resolved[t] == self.area[t] {
+                            self.full[t] = 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Marks a footprint claimed.
+#[inline]
+pub(crate) fn claim(claimed: &mut [u8], width: usize, fp: &Footprint) {
+    for v in fp.v0..=fp.v1 {
+        let row = v as usize * width;
+        claimed[row + fp.u0 as usize..=row + fp.u1 as usize].fill(1);
+    }
+}
+
+/// One view's observation of a voxel: mean colour of its unclaimed footprint pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Sample {
+    pub(crate) view: usize,
+    pub(crate) colour: [f32; 3],
+}
+
+impl Sample {
+    pub(crate) fn new(view: usize, sum: [u32; 3], n: u32) -> Self {
+        let inv = 1.0 / n as f32;
+        Sample {
+            view,
+            colour: [
+                sum[0] as f32 * inv,
+                sum[1] as f32 * inv,
+                sum[2] as f32 * inv,
+            ],
+        }
+    }
+}
+
+#[inline]
+fn rms_difference(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / 3.0).sqrt()
+}
+
+/// The colour of a consistent voxel (mean of its samples), or `None` when inconsistent.
+/// `samples` are in view order; `centres[v]` is the centre of camera `v`; `x` the voxel.
+pub(crate) fn decide(
+    samples: &[Sample],
+    centres: &[Point3<f64>],
+    x: &Point3<f64>,
+    criterion: &Criterion,
+    scratch: &mut Vec<(f64, Vector3<f64>, usize)>,
+) -> Option<[u8; 3]> {
+    let n = samples.len();
+    if n == 0 {
+        return None;
+    }
+    let mut mean = [0f32; 3];
+    for s in samples {
+        for (m, c) in mean.iter_mut().zip(s.colour) {
+            *m += c;
+        }
+    }
+    for m in &mut mean {
+        *m /= n as f32;
+    }
+    let ok = match *criterion {
+        Criterion::Classic { threshold } => {
+            let mut var = 0f32;
+            for s in samples {
+                for (c, m) in s.colour.iter().zip(&mean) {
+                    let d = c - m;
+                    var += d * d;
+                }
+            }
+            (var / (3 * n) as f32).sqrt() <= threshold
+        }
+        Criterion::Angular { threshold, window } => {
+            // Emission directions, sorted by azimuth about the pan axis; neighbours within
+            // the window are then contiguous (a superset filter: elevation only adds angle).
+            scratch.clear();
+            for (idx, s) in samples.iter().enumerate() {
+                let d = (centres[s.view] - x).normalize();
+                scratch.push((d.y.atan2(d.x), d, idx));
+            }
+            scratch.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)));
+            let w = window.radians();
+            let cos_w = w.cos();
+            let (mut sum, mut pairs) = (0f32, 0u32);
+            for a in 0..n {
+                for step in 1..n {
+                    let b = (a + step) % n;
+                    let mut gap = scratch[b].0 - scratch[a].0;
+                    if gap < 0.0 {
+                        gap += std::f64::consts::TAU;
+                    }
+                    if gap > w {
+                        break;
+                    }
+                    if scratch[a].1.dot(&scratch[b].1) >= cos_w {
+                        sum += rms_difference(
+                            &samples[scratch[a].2].colour,
+                            &samples[scratch[b].2].colour,
+                        );
+                        pairs += 1;
+                    }
+                }
+            }
+            if pairs == 0 {
+                for a in 0..n {
+                    for b in a + 1..n {
+                        sum += rms_difference(&samples[a].colour, &samples[b].colour);
+                        pairs += 1;
+                    }
+                }
+            }
+            pairs == 0 || sum / pairs as f32 <= threshold
+        }
+    };
+    ok.then(|| mean.map(|m| m.round().clamp(0.0, 255.0) as u8))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angular_tolerates_far_disagreement() {
+        // Eight cameras on a ring; colours drift smoothly with the angle (a glossy point).
+        let centres: Vec<Point3<f64>> = (0..8)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 8.0;
+                Point3::new(a.cos(), a.sin(), 0.5)
+            })
+            .collect();
+        let samples: Vec<Sample> = (0..8)
+            .map(|i| Sample {
+                view: i,
+                colour: [100.0 + 12.0 * i as f32, 80.0, 60.0],
+            })
+            .collect();
+        let x = Point3::origin();
+        let mut scratch = Vec::new();
+        let angular = Criterion::Angular {
+            threshold: 15.0,
+            window: Angle::from_degrees(50.0),
+        };
+        assert!(decide(&samples, &centres, &x, &angular, &mut scratch).is_some());
+        let classic = Criterion::Classic { threshold: 15.0 };
+        assert!(decide(&samples, &centres, &x, &classic, &mut scratch).is_none());
+        // Neighbours that disagree fail the angular test too.
+        let noisy: Vec<Sample> = (0..8)
+            .map(|i| Sample {
+                view: i,
+                colour: [if i % 2 == 0 { 30.0 } else { 200.0 }, 80.0, 60.0],
+            })
+            .collect();
+        assert!(decide(&noisy, &centres, &x, &angular, &mut scratch).is_none());
+    }
+}
