@@ -95,7 +95,7 @@ fn label(seed: u64) -> Texture {
         cell_m: 0.008,
         seed,
     }
-    .grainy(0.6, seed + 100)
+    .grainy(0.8, seed + 100)
 }
 
 fn matte(texture: Texture) -> Material {
@@ -164,7 +164,7 @@ pub fn head() -> Result<Scene> {
             octaves: 4,
             seed: 5,
         }
-        .grainy(0.6, 105),
+        .grainy(0.8, 105),
         specular: 0.6,
         shininess: 60.0,
     };
@@ -176,7 +176,7 @@ pub fn head() -> Result<Scene> {
             octaves: 3,
             seed: 6,
         }
-        .grainy(0.6, 106),
+        .grainy(0.8, 106),
     );
     studio_scene(
         "head",
@@ -201,7 +201,7 @@ pub fn chair() -> Result<Scene> {
             octaves: 4,
             seed: 8,
         }
-        .grainy(0.6, 108),
+        .grainy(0.8, 108),
         specular: 0.15,
         shininess: 20.0,
     };
@@ -257,7 +257,7 @@ pub fn lambertian() -> Result<Scene> {
                         octaves: 4,
                         seed: 4,
                     }
-                    .grainy(0.6, 104),
+                    .grainy(0.8, 104),
                 ),
             ),
             ellipsoid(
@@ -269,7 +269,7 @@ pub fn lambertian() -> Result<Scene> {
                         b: rgb8(240, 240, 230),
                         square_m: 0.012,
                     }
-                    .grainy(0.6, 110),
+                    .grainy(0.8, 110),
                 ),
             ),
         ],

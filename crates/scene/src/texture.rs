@@ -32,7 +32,7 @@ pub enum Texture {
         /// Seed of the lattice.
         seed: u64,
     },
-    /// A 3D checkerboard of cubes of `square_m` metres.
+    /// A 3D checkerboard of cubes of `square_m` metres, with soft edges.
     Checker {
         /// First colour.
         a: Colour,
@@ -55,8 +55,9 @@ pub enum Texture {
         /// Seed of the noise.
         seed: u64,
     },
-    /// Cells of `cell_m` metres, each a colour from `palette`, shaded by fine noise: sharp
-    /// edges and strong colour changes, like a printed label.
+    /// A colour from `palette` at every point of a lattice of `cell_m` metres, blended
+    /// smoothly in between: strong colour changes, like a printed label, without edges
+    /// sharper than a camera would resolve.
     Patchwork {
         /// The colours cells choose from.
         palette: Vec<Colour>,
@@ -68,12 +69,12 @@ pub enum Texture {
 }
 
 impl Texture {
-    /// This texture with [`Texture::Grain`] of the given strength at 2.5 mm.
+    /// This texture with [`Texture::Grain`] of the given strength at 4 mm.
     pub fn grainy(self, amplitude: f32, seed: u64) -> Texture {
         Texture::Grain {
             base: Box::new(self),
             amplitude,
-            feature_m: 0.0025,
+            feature_m: 0.004,
             seed,
         }
     }
@@ -102,9 +103,11 @@ impl Texture {
                 base.colour_at(p) * (1.0 + amplitude * (n - 0.5))
             }
             Texture::Checker { a, b, square_m } => {
-                let c = p.coords / *square_m;
-                let parity = (c.x.floor() as i64 + c.y.floor() as i64 + c.z.floor() as i64) & 1;
-                if parity == 0 { *a } else { *b }
+                // sin x sin y sin z changes sign on the cube faces; tanh makes it a checker
+                // whose edges are soft over about a tenth of a square (band-limited).
+                let c = p.coords * (std::f64::consts::PI / *square_m);
+                let v = (c.x.sin() * c.y.sin() * c.z.sin() * 6.0).tanh() as f32;
+                b + (a - b) * (0.5 + 0.5 * v)
             }
             Texture::Patchwork {
                 palette,
@@ -114,16 +117,23 @@ impl Texture {
                 if palette.is_empty() {
                     return Colour::zeros();
                 }
+                // Palette colours at the lattice points, blended smoothly in between: strong
+                // colour changes, band-limited so that a camera (which integrates over its
+                // pixels) would not alias them.
                 let c = p.coords / *cell_m;
-                let h = hash3(
-                    c.x.floor() as i64,
-                    c.y.floor() as i64,
-                    c.z.floor() as i64,
-                    *seed,
-                );
-                let base = palette[(h % palette.len() as u64) as usize];
-                let shade = 0.75 + 0.5 * fbm(&(c * 3.0), 2, seed ^ 0x5EED) as f32;
-                base * shade
+                let (fx, fy, fz) = (c.x.floor(), c.y.floor(), c.z.floor());
+                let s = |t: f64| (t * t * (3.0 - 2.0 * t)) as f32;
+                let (tx, ty, tz) = (s(c.x - fx), s(c.y - fy), s(c.z - fz));
+                let at = |dx: i64, dy: i64, dz: i64| {
+                    let h = hash3(fx as i64 + dx, fy as i64 + dy, fz as i64 + dz, *seed);
+                    palette[(h % palette.len() as u64) as usize]
+                };
+                let lerp = |a: Colour, b: Colour, t: f32| a + (b - a) * t;
+                let x00 = lerp(at(0, 0, 0), at(1, 0, 0), tx);
+                let x10 = lerp(at(0, 1, 0), at(1, 1, 0), tx);
+                let x01 = lerp(at(0, 0, 1), at(1, 0, 1), tx);
+                let x11 = lerp(at(0, 1, 1), at(1, 1, 1), tx);
+                lerp(lerp(x00, x10, ty), lerp(x01, x11, ty), tz)
             }
         }
     }
@@ -182,6 +192,7 @@ mod tests {
             seed: 3,
         };
         let c = t.colour_at(&Point3::new(0.003, 0.004, 0.005));
-        assert!(c.y == 0.0 && (c.x > 0.0) != (c.z > 0.0));
+        // A blend of the two palette colours: no green, red and blue summing to one.
+        assert!(c.y == 0.0 && (c.x + c.z - 1.0).abs() < 1e-5, "{c}");
     }
 }

@@ -109,7 +109,11 @@ fn reprojected(
     if !da.is_finite() {
         return None;
     }
-    let p = a.unproject(pixel, da as f64)?;
+    // The point in f64 (the rendered depth is f32, too coarse at grazing angles for a
+    // texture with fine grain).
+    let ray = a.ray_through_pixel(pixel)?;
+    let hit = scene.first_hit(&ray.origin, ray.direction.as_ref(), 0.0, f64::INFINITY)?;
+    let p = ray.at(hit.hit.t);
     let pb = b.project(&p)?;
     if !b.size.contains(pb) {
         return None;

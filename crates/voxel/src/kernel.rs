@@ -3,7 +3,8 @@
 //!
 //! Every kernel (fast or reference) computes a voxel's projection with the same operations
 //! in the same order (`row_base + inc * i`, f32), presents the per-view samples in view order,
-//! and decides with [`decide`]; so the fast and reference paths agree voxel for voxel.
+//! and decides with the same consistency function; so the fast and reference paths agree
+//! voxel for voxel.
 
 use aibr_camera::{Angle, Camera};
 use image::{GrayImage, RgbImage};

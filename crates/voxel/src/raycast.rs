@@ -24,9 +24,24 @@ impl VoxelModel {
     /// The first occupied voxel along `origin + t dir`, `t >= 0` (Amanatides-Woo 3D DDA).
     /// `dir` need not be a unit vector; `t` is in its units.
     pub fn raycast(&self, origin: &Point3<f64>, dir: &Vector3<f64>) -> Option<VoxelHit> {
+        self.raycast_from(origin, dir, 0.0)
+    }
+
+    /// Like [`raycast`](Self::raycast), starting at `t_start` (voxels before it are ignored;
+    /// the voxel holding the start point counts, with `t = t_start`).
+    pub fn raycast_from(
+        &self,
+        origin: &Point3<f64>,
+        dir: &Vector3<f64>,
+        t_start: f64,
+    ) -> Option<VoxelHit> {
         let grid = self.grid();
         let b = grid.bounds();
         let (t_enter, t_exit) = aibr_camera::aabb::slab(&b.min, &b.max, origin, dir)?;
+        let t_enter = t_enter.max(t_start);
+        if t_enter > t_exit {
+            return None;
+        }
         let dims = grid.dims();
         let s = grid.voxel_size();
         // Start in the voxel holding the entry point, nudged inside.

@@ -1,0 +1,110 @@
+//! Masked PSNR of novel views half-way between uniform captures, for catalogue scenes.
+//!
+//! `cargo run --release -p aibr-render --example render_quality -- [SCENE...]`
+//! (default: every catalogue scene; 12, 24 and 48 views; 128^3 models). Writes a render
+//! beside its ground truth for each scene to the temporary folder.
+
+use aibr_render::{RenderParams, Renderer, SourceView, metrics};
+use aibr_scene::{RenderOptions, catalogue};
+use aibr_voxel::{ColoringParams, View, VoxelGrid, voxel_coloring};
+use image::GenericImage;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let names: Vec<String> = if args.is_empty() {
+        catalogue::SCENE_NAMES
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        args
+    };
+    let counts: Vec<usize> = std::env::var("VIEWS")
+        .ok()
+        .map(|v| v.split(',').filter_map(|n| n.parse().ok()).collect())
+        .unwrap_or(vec![12, 24, 48]);
+    println!(
+        "| scene | views | masked PSNR, half-way views (mean) | worst | masked SSIM (mean) | geometry coverage |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for name in &names {
+        let scene = catalogue::by_name(name)?;
+        let options = RenderOptions {
+            noise_sigma: 1.0 / 255.0,
+            seed: 1,
+        };
+        for &n in &counts {
+            let pans = scene.rig.uniform_pans(n);
+            let cameras: Vec<_> = pans
+                .iter()
+                .map(|p| scene.camera(*p))
+                .collect::<Result<_, _>>()?;
+            let frames: Vec<_> = cameras
+                .iter()
+                .map(|c| scene.render(c, &options))
+                .collect::<Result<_, _>>()?;
+            let images: Vec<_> = frames.iter().map(|f| f.rgb8()).collect();
+            let views: Vec<View<'_>> = cameras
+                .iter()
+                .zip(&images)
+                .zip(&frames)
+                .map(|((camera, image), f)| View {
+                    camera,
+                    image,
+                    mask: Some(&f.mask),
+                })
+                .collect();
+            let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
+            let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
+            let sources = cameras
+                .iter()
+                .zip(images.iter().cloned())
+                .map(|(c, image)| SourceView {
+                    camera: c.clone(),
+                    image,
+                })
+                .collect();
+            let renderer = Renderer::new(&model, sources, RenderParams::default())?;
+            if std::env::var("AT_SOURCE").is_ok() {
+                let camera = scene.camera(pans[5])?;
+                let truth = scene.render(&camera, &RenderOptions::default())?;
+                let view = renderer.render(&camera)?;
+                println!(
+                    "at source 5: {:.2} dB",
+                    metrics::psnr(&truth.rgb8(), &view.rgb, Some(&truth.mask))?
+                );
+                let mut sheet = image::RgbImage::new(1280, 480);
+                sheet.copy_from(&truth.rgb8(), 0, 0)?;
+                sheet.copy_from(&view.rgb, 640, 0)?;
+                sheet.save("/tmp/at_source.png")?;
+            }
+            let (mut sum, mut worst, mut ssim_sum, mut geo, mut m) =
+                (0.0, f64::INFINITY, 0.0, 0.0, 0);
+            for (i, pair) in pans.windows(2).enumerate() {
+                let camera = scene.camera((pair[0] + pair[1]) * 0.5)?;
+                let truth = scene.render(&camera, &RenderOptions::default())?;
+                let view = renderer.render(&camera)?;
+                let truth8 = truth.rgb8();
+                let p = metrics::psnr(&truth8, &view.rgb, Some(&truth.mask))?;
+                ssim_sum += metrics::ssim(&truth8, &view.rgb, Some(&truth.mask))?;
+                geo += view.coverage_shares().0;
+                sum += p;
+                worst = worst.min(p);
+                m += 1;
+                if i == n / 2 {
+                    let mut sheet = image::RgbImage::new(1280, 480);
+                    sheet.copy_from(&truth8, 0, 0)?;
+                    sheet.copy_from(&view.rgb, 640, 0)?;
+                    sheet.save(std::env::temp_dir().join(format!("render_{name}_{n}.png")))?;
+                }
+            }
+            println!(
+                "| {name} | {n} | {:.2} dB | {worst:.2} dB | {:.3} | {:.1}% |",
+                sum / m as f64,
+                ssim_sum / m as f64,
+                100.0 * geo / m as f64
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,464 @@
+//! The depth-driven IBR renderer (section 2.2 of the paper): a virtual ray is interpolated
+//! from captured rays through the surface point it meets.
+
+use aibr_camera::{Camera, ImageSize};
+use aibr_voxel::{DepthMap, VoxelModel};
+use image::{GrayImage, RgbImage};
+use nalgebra::{Point2, Point3, Vector3};
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+
+/// A captured view: a pinhole camera and its image.
+#[derive(Debug, Clone)]
+pub struct SourceView {
+    /// The camera (no lens distortion: undistort the image first).
+    pub camera: Camera,
+    /// The image.
+    pub image: RgbImage,
+}
+
+/// Parameters of the blend (Buehler et al.'s unstructured lumigraph).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderParams {
+    /// Sources blended per pixel (default 3).
+    pub k: usize,
+    /// Sources considered per frame: the nearest in angle to the virtual camera as seen from
+    /// the object (default 4: the `k` blended and the one that sets their threshold; at most
+    /// 16).
+    pub candidates: usize,
+    /// Weight of the resolution penalty (a source farther from the point than the virtual
+    /// camera sees it coarser) against the angular one (default 0.2).
+    pub resolution_weight: f64,
+    /// A source sees a surface point when the point is at most this many voxels behind the
+    /// source's own depth there (default 2).
+    pub occlusion_tolerance_voxels: f64,
+}
+
+impl Default for RenderParams {
+    fn default() -> Self {
+        RenderParams {
+            k: 3,
+            candidates: 4,
+            resolution_weight: 0.2,
+            occlusion_tolerance_voxels: 2.0,
+        }
+    }
+}
+
+/// Most candidate sources per frame.
+pub const MAX_CANDIDATES: usize = 16;
+
+/// How a rendered pixel was made (values of [`RenderedView::coverage`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Coverage {
+    /// No source sees the pixel's point: black, infinite depth.
+    Nothing = 0,
+    /// The model has no surface there (or no source sees it): blended at the focal surface,
+    /// the depth of the object centre.
+    Fallback = 1,
+    /// Blended at the model's surface point, from the sources that see it.
+    Geometry = 2,
+}
+
+/// One rendered view.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderedView {
+    /// Colour.
+    pub rgb: RgbImage,
+    /// Camera-z of the point used per pixel (model surface or focal surface), metres;
+    /// infinite where nothing was rendered.
+    pub depth: DepthMap,
+    /// [`Coverage`] per pixel, as its `u8` value.
+    pub coverage: GrayImage,
+    /// Per pixel, the nearest splatted surface-voxel depth of the last frame (scratch).
+    splat: Vec<f32>,
+}
+
+impl RenderedView {
+    /// Buffers for views of `size`, to pass to [`Renderer::render_into`] frame after frame.
+    pub fn new(size: ImageSize) -> Self {
+        RenderedView {
+            rgb: RgbImage::new(size.width, size.height),
+            depth: DepthMap::new(size.width, size.height),
+            coverage: GrayImage::new(size.width, size.height),
+            splat: vec![f32::INFINITY; size.pixel_count()],
+        }
+    }
+
+    /// The coverage of pixel `(x, y)` (`Nothing` off the image).
+    pub fn coverage_at(&self, x: u32, y: u32) -> Coverage {
+        match self.coverage.get_pixel_checked(x, y).map(|p| p.0[0]) {
+            Some(2) => Coverage::Geometry,
+            Some(1) => Coverage::Fallback,
+            _ => Coverage::Nothing,
+        }
+    }
+
+    /// Share of pixels with each coverage: `(geometry, fallback, nothing)`.
+    pub fn coverage_shares(&self) -> (f64, f64, f64) {
+        let mut n = [0usize; 3];
+        for p in self.coverage.pixels() {
+            n[p.0[0].min(2) as usize] += 1;
+        }
+        let total = self.coverage.len().max(1) as f64;
+        (
+            n[2] as f64 / total,
+            n[1] as f64 / total,
+            n[0] as f64 / total,
+        )
+    }
+}
+
+/// A surface voxel, for splatting.
+struct Splat {
+    centre: Point3<f64>,
+}
+
+struct Source {
+    image: RgbImage,
+    depth: Vec<f32>,
+    p: [[f64; 4]; 3],
+    centre: Point3<f64>,
+    width: u32,
+    height: u32,
+}
+
+/// Renders novel views from captured views and a voxel model.
+///
+/// Per pixel: the model is ray cast (3D DDA) for the surface point; each candidate source
+/// that sees the point (its own depth, splatted from the model at set-up, is not nearer by
+/// more than the tolerance) gets the unstructured-lumigraph penalty
+/// `angle + resolution_weight * resolution` (angle between the rays from the point to the
+/// virtual and the source camera, as a chord of unit vectors; resolution the relative excess
+/// distance of the source). The
+/// `k` best are blended with weights `(1 - p / p_(k+1)) / p`, which fall smoothly to zero as a
+/// source leaves the `k` best, so the image changes continuously with the camera. Where the
+/// model has no surface the point is taken on the focal surface at the depth of the object
+/// centre, so the image degrades like a light field instead of showing holes.
+pub struct Renderer<'a> {
+    model: &'a VoxelModel,
+    sources: Vec<Source>,
+    params: RenderParams,
+    focus: Point3<f64>,
+    tolerance: f64,
+    surface: Vec<Splat>,
+}
+
+impl<'a> Renderer<'a> {
+    /// Prepares the sources: their depth maps are splatted from the model's surface voxels.
+    pub fn new(
+        model: &'a VoxelModel,
+        sources: Vec<SourceView>,
+        params: RenderParams,
+    ) -> Result<Self> {
+        if sources.is_empty() {
+            return Err(Error::NoSources);
+        }
+        if params.k == 0 || params.candidates == 0 || params.candidates > MAX_CANDIDATES {
+            return Err(Error::InvalidParameter {
+                name: "candidates",
+                value: params.candidates as f64,
+                reason: "k and candidates must be positive, candidates at most 16",
+            });
+        }
+        let grid = model.grid();
+        let surface = model.surface_voxels();
+        let s = grid.voxel_size();
+        let focus = if surface.is_empty() {
+            grid.bounds().centre()
+        } else {
+            let sum = surface
+                .iter()
+                .fold(Vector3::zeros(), |a, v| a + grid.centre(*v).coords);
+            Point3::from(sum / surface.len() as f64)
+        };
+        let prepared = sources
+            .into_par_iter()
+            .enumerate()
+            .map(|(i, sv)| {
+                let cam = &sv.camera;
+                if !cam.distortion.is_none() {
+                    return Err(Error::Distorted { view: i });
+                }
+                if sv.image.dimensions() != (cam.size.width, cam.size.height) {
+                    return Err(Error::SizeMismatch {
+                        what: "source image",
+                        width: sv.image.width(),
+                        height: sv.image.height(),
+                        expected_width: cam.size.width,
+                        expected_height: cam.size.height,
+                    });
+                }
+                let m = cam.projection_matrix();
+                let p: [[f64; 4]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]));
+                let (w, h) = (cam.size.width as i64, cam.size.height as i64);
+                let mut depth = vec![f32::INFINITY; (w * h) as usize];
+                let f = cam.intrinsics.fx.max(cam.intrinsics.fy);
+                for v in &surface {
+                    let x = grid.centre(*v);
+                    let Some(px) = cam.project(&x) else { continue };
+                    let z = cam.depth_of(&x);
+                    // Half the projected voxel edge, as the voxel kernels use.
+                    let r = 0.5 * s * f / z;
+                    let (u0, u1) = ((px.x - r).round() as i64, (px.x + r).round() as i64);
+                    let (v0, v1) = ((px.y - r).round() as i64, (px.y + r).round() as i64);
+                    for yy in v0.max(0)..=v1.min(h - 1) {
+                        for xx in u0.max(0)..=u1.min(w - 1) {
+                            let d = &mut depth[(yy * w + xx) as usize];
+                            *d = d.min(z as f32);
+                        }
+                    }
+                }
+                Ok(Source {
+                    centre: cam.centre(),
+                    width: cam.size.width,
+                    height: cam.size.height,
+                    image: sv.image,
+                    depth,
+                    p,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Renderer {
+            model,
+            sources: prepared,
+            params,
+            focus,
+            tolerance: params.occlusion_tolerance_voxels * s,
+            surface: surface
+                .iter()
+                .map(|v| Splat {
+                    centre: grid.centre(*v),
+                })
+                .collect(),
+        })
+    }
+
+    /// The focal point: the centroid of the model's surface voxels.
+    pub fn focus(&self) -> Point3<f64> {
+        self.focus
+    }
+
+    /// Renders the view of `camera` into new buffers.
+    pub fn render(&self, camera: &Camera) -> Result<RenderedView> {
+        let mut out = RenderedView::new(camera.size);
+        self.render_into(camera, &mut out)?;
+        Ok(out)
+    }
+
+    /// Renders the view of `camera` into `out` (of the camera's size); no allocation.
+    pub fn render_into(&self, camera: &Camera, out: &mut RenderedView) -> Result<()> {
+        let (w, h) = (camera.size.width, camera.size.height);
+        for (what, dims) in [
+            ("rgb buffer", out.rgb.dimensions()),
+            ("depth buffer", out.depth.dimensions()),
+            ("coverage buffer", out.coverage.dimensions()),
+        ] {
+            if dims != (w, h) {
+                return Err(Error::SizeMismatch {
+                    what,
+                    width: dims.0,
+                    height: dims.1,
+                    expected_width: w,
+                    expected_height: h,
+                });
+            }
+        }
+        // The candidates: sources nearest in angle about the focus.
+        let centre = camera.centre();
+        let to_virtual = (centre - self.focus).normalize();
+        let mut candidates = [(f64::INFINITY, usize::MAX); MAX_CANDIDATES];
+        let n_cand = self.params.candidates.min(self.sources.len());
+        for (i, s) in self.sources.iter().enumerate() {
+            let a = 1.0 - (s.centre - self.focus).normalize().dot(&to_virtual);
+            if a < candidates[n_cand - 1].0 {
+                candidates[n_cand - 1] = (a, i);
+                candidates[..n_cand].sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            }
+        }
+        let candidates = &candidates[..n_cand];
+        // Splat the surface voxels (half their diagonal, so every ray that meets a voxel
+        // lands in its splat): each ray's DDA then starts just before the nearest splat, and
+        // a pixel no splat covers meets no voxel at all.
+        if out.splat.len() != (w * h) as usize {
+            out.splat.resize((w * h) as usize, f32::INFINITY);
+        }
+        out.splat.fill(f32::INFINITY);
+        let s = self.model.grid().voxel_size();
+        let f = camera.intrinsics.fx.max(camera.intrinsics.fy);
+        for v in &self.surface {
+            let z = camera.depth_of(&v.centre);
+            if !(z > 0.0) {
+                continue;
+            }
+            let Some(px) = camera.project(&v.centre) else {
+                continue;
+            };
+            let r = 0.87 * s * f / z + 1.0;
+            let (u0, u1) = (
+                (px.x - r).floor().max(0.0),
+                (px.x + r).ceil().min(w as f64 - 1.0),
+            );
+            let (v0, v1) = (
+                (px.y - r).floor().max(0.0),
+                (px.y + r).ceil().min(h as f64 - 1.0),
+            );
+            if u0 > u1 || v0 > v1 {
+                continue;
+            }
+            for yy in v0 as usize..=v1 as usize {
+                let row = &mut out.splat[yy * w as usize..(yy + 1) * w as usize];
+                for d in &mut row[u0 as usize..=u1 as usize] {
+                    *d = d.min(z as f32);
+                }
+            }
+        }
+        let margin = 2.0 * s;
+        let rot = camera.world_from_cam().rotation.to_rotation_matrix();
+        let focal_depth = camera.depth_of(&self.focus).max(1e-6);
+        let pinhole = camera.distortion.is_none();
+        let width = w as usize;
+        let splat = &out.splat;
+        out.rgb
+            .par_chunks_mut(width * 3)
+            .zip(out.depth.par_chunks_mut(width))
+            .zip(out.coverage.par_chunks_mut(width))
+            .enumerate()
+            .for_each(|(v, ((rgb_row, depth_row), cov_row))| {
+                for u in 0..width {
+                    let px = Point2::new(u as f64, v as f64);
+                    let n = if pinhole {
+                        Some(camera.intrinsics.normalized_from_pixel(px))
+                    } else {
+                        camera.normalized_from_pixel(px)
+                    };
+                    let start = splat[v * width + u] as f64 - margin;
+                    let (colour, depth, coverage) = match n {
+                        Some(n) => self.shade(
+                            &centre,
+                            &(rot * Vector3::new(n.x, n.y, 1.0)),
+                            start,
+                            focal_depth,
+                            candidates,
+                        ),
+                        None => ([0; 3], f32::INFINITY, Coverage::Nothing),
+                    };
+                    rgb_row[3 * u..3 * u + 3].copy_from_slice(&colour);
+                    depth_row[u] = depth;
+                    cov_row[u] = coverage as u8;
+                }
+            });
+        Ok(())
+    }
+
+    /// Colour, depth and coverage of one virtual ray (`dir` has camera z = 1).
+    fn shade(
+        &self,
+        centre: &Point3<f64>,
+        dir: &Vector3<f64>,
+        start: f64,
+        focal_depth: f64,
+        candidates: &[(f64, usize)],
+    ) -> ([u8; 3], f32, Coverage) {
+        let hit = if start.is_finite() {
+            self.model.raycast_from(centre, dir, start.max(0.0))
+        } else {
+            None
+        };
+        if let Some(hit) = hit {
+            let p = centre + dir * hit.t;
+            if let Some(c) = self.blend(&p, centre, candidates, true) {
+                return (c, hit.t as f32, Coverage::Geometry);
+            }
+            if let Some(c) = self.blend(&p, centre, candidates, false) {
+                return (c, hit.t as f32, Coverage::Fallback);
+            }
+        }
+        let p = centre + dir * focal_depth;
+        match self.blend(&p, centre, candidates, false) {
+            Some(c) => (c, focal_depth as f32, Coverage::Fallback),
+            None => ([0; 3], f32::INFINITY, Coverage::Nothing),
+        }
+    }
+
+    /// The unstructured-lumigraph blend of the candidates that see `p`.
+    fn blend(
+        &self,
+        p: &Point3<f64>,
+        eye: &Point3<f64>,
+        candidates: &[(f64, usize)],
+        occlusion: bool,
+    ) -> Option<[u8; 3]> {
+        let to_eye = eye - p;
+        let eye_dist = to_eye.norm();
+        let to_eye = to_eye / eye_dist;
+        // (penalty, source, u, v) of each source that sees p.
+        let mut seen = [(0f64, 0usize, 0f64, 0f64); MAX_CANDIDATES];
+        let mut n = 0;
+        for &(_, i) in candidates {
+            let s = &self.sources[i];
+            let row = |r: &[f64; 4]| r[0] * p.x + r[1] * p.y + r[2] * p.z + r[3];
+            let z = row(&s.p[2]);
+            if !(z > 0.0) {
+                continue;
+            }
+            let (u, v) = (row(&s.p[0]) / z, row(&s.p[1]) / z);
+            if !(u >= 0.0 && v >= 0.0 && u <= (s.width - 1) as f64 && v <= (s.height - 1) as f64) {
+                continue;
+            }
+            if occlusion {
+                let d = s.depth[(v.round() as usize) * s.width as usize + u.round() as usize];
+                if z > d as f64 + self.tolerance {
+                    continue;
+                }
+            }
+            let to_src = s.centre - p;
+            let src_dist = to_src.norm();
+            let angle = (to_src / src_dist - to_eye).norm();
+            let resolution = ((src_dist - eye_dist) / eye_dist).max(0.0);
+            seen[n] = (angle + self.params.resolution_weight * resolution, i, u, v);
+            n += 1;
+        }
+        if n == 0 {
+            return None;
+        }
+        let seen = &mut seen[..n];
+        seen.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let k = self.params.k.min(n);
+        // The (k+1)-th penalty is where weights reach zero; without one, twice the k-th.
+        let threshold = if n > k {
+            seen[k].0
+        } else {
+            2.0 * seen[k - 1].0
+        } + 1e-12;
+        let (mut acc, mut total) = ([0f64; 3], 0f64);
+        for &(penalty, i, u, v) in &seen[..k] {
+            // Reaches zero at the threshold, and grows without bound as the penalty vanishes, so
+            // a virtual camera at a source reproduces it (epipole consistency).
+            let wgt = (1.0 - penalty / threshold).max(0.0) / (penalty + 1e-6) + 1e-12;
+            let c = bilinear(&self.sources[i].image, u, v);
+            for ch in 0..3 {
+                acc[ch] += wgt * c[ch];
+            }
+            total += wgt;
+        }
+        Some(acc.map(|a| (a / total).round().clamp(0.0, 255.0) as u8))
+    }
+}
+
+/// Bilinear sample at `(u, v)` (pixel centres at integers), inside the image.
+fn bilinear(img: &RgbImage, u: f64, v: f64) -> [f64; 3] {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let x0 = (u.floor() as usize).min(w.saturating_sub(2));
+    let y0 = (v.floor() as usize).min(h.saturating_sub(2));
+    let (fx, fy) = (u - x0 as f64, v - y0 as f64);
+    let raw = img.as_raw();
+    let at = |x: usize, y: usize, c: usize| raw[(y.min(h - 1) * w + x.min(w - 1)) * 3 + c] as f64;
+    std::array::from_fn(|c| {
+        let top = at(x0, y0, c) * (1.0 - fx) + at(x0 + 1, y0, c) * fx;
+        let bottom = at(x0, y0 + 1, c) * (1.0 - fx) + at(x0 + 1, y0 + 1, c) * fx;
+        top * (1.0 - fy) + bottom * fy
+    })
+}

@@ -1,0 +1,219 @@
+//! The renderer and the metrics against ground truth and a peer.
+
+use aibr_camera::{Angle, Camera};
+use aibr_render::{
+    Coverage, RenderParams, RenderedView, Renderer, SourceView, metrics, write_depth_exr,
+};
+use aibr_scene::{RenderOptions, Scene, catalogue};
+use aibr_voxel::{ColoringParams, View, VoxelGrid, VoxelModel, voxel_coloring};
+use image::RgbImage;
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+#[test]
+fn metrics_match_scikit_image() -> TestResult {
+    let dir = aibr_testdata::workspace_root().join("fixtures/metrics");
+    let a = image::open(dir.join("a.png"))?.to_rgb8();
+    let b = image::open(dir.join("b.png"))?.to_rgb8();
+    let mask = image::open(dir.join("mask.png"))?.to_luma8();
+    let golden: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("metrics_golden.json"))?)?;
+    let g = |k: &str| golden[k].as_f64().ok_or("missing golden value");
+    assert!((metrics::psnr(&a, &b, None)? - g("psnr")?).abs() < 1e-9);
+    assert!((metrics::psnr(&a, &b, Some(&mask))? - g("psnr_masked")?).abs() < 1e-9);
+    assert!(
+        (metrics::ssim(&a, &b, None)? - g("ssim")?).abs() < 1e-6,
+        "{}",
+        metrics::ssim(&a, &b, None)?
+    );
+    assert!((metrics::ssim(&a, &b, Some(&mask))? - g("ssim_masked")?).abs() < 1e-6);
+    assert_eq!(metrics::psnr(&a, &a, None)?, f64::INFINITY);
+    assert!((metrics::ssim(&a, &a, None)? - 1.0).abs() < 1e-12);
+    assert!(metrics::psnr(&a, &RgbImage::new(3, 3), None).is_err());
+    assert!(
+        metrics::psnr(&a, &b, Some(&image::GrayImage::new(64, 48))).is_err(),
+        "empty mask"
+    );
+    Ok(())
+}
+
+struct Setup {
+    scene: Scene,
+    pans: Vec<Angle>,
+    sources: Vec<SourceView>,
+    model: VoxelModel,
+}
+
+fn setup(name: &str, n: usize, resolution: usize) -> Result<Setup, Box<dyn std::error::Error>> {
+    let scene = catalogue::by_name(name)?;
+    let pans = scene.rig.uniform_pans(n);
+    let options = RenderOptions {
+        noise_sigma: 1.0 / 255.0,
+        seed: 1,
+    };
+    let cameras: Vec<Camera> = pans
+        .iter()
+        .map(|p| scene.camera(*p))
+        .collect::<Result<_, _>>()?;
+    let frames: Vec<_> = cameras
+        .iter()
+        .map(|c| scene.render(c, &options))
+        .collect::<Result<_, _>>()?;
+    let images: Vec<RgbImage> = frames.iter().map(|f| f.rgb8()).collect();
+    let views: Vec<View<'_>> = cameras
+        .iter()
+        .zip(&images)
+        .zip(&frames)
+        .map(|((camera, image), f)| View {
+            camera,
+            image,
+            mask: Some(&f.mask),
+        })
+        .collect();
+    let model = voxel_coloring(
+        &VoxelGrid::with_resolution(scene.bounds(), resolution)?,
+        &views,
+        &ColoringParams::default(),
+    )?
+    .model;
+    let sources = cameras
+        .into_iter()
+        .zip(images)
+        .map(|(camera, image)| SourceView { camera, image })
+        .collect();
+    Ok(Setup {
+        scene,
+        pans,
+        sources,
+        model,
+    })
+}
+
+fn masked_psnr(s: &Setup, r: &Renderer<'_>, pan: Angle) -> Result<f64, Box<dyn std::error::Error>> {
+    let camera = s.scene.camera(pan)?;
+    let truth = s.scene.render(&camera, &RenderOptions::default())?;
+    let view = r.render(&camera)?;
+    Ok(metrics::psnr(&truth.rgb8(), &view.rgb, Some(&truth.mask))?)
+}
+
+/// The figure: `lambertian`, 24 uniform views, its 128^3 model, the virtual views
+/// half-way between captures. Target 30 dB; what is reached is printed and guarded.
+#[test]
+fn halfway_views_on_lambertian() -> TestResult {
+    let s = setup("lambertian", 24, 128)?;
+    let r = Renderer::new(&s.model, s.sources.clone(), RenderParams::default())?;
+    let mut values = Vec::new();
+    for pair in s.pans.windows(2).step_by(3) {
+        values.push(masked_psnr(&s, &r, (pair[0] + pair[1]) * 0.5)?);
+    }
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    eprintln!("lambertian, 24 views, 128^3: half-way masked PSNR mean {mean:.2} dB (target 30)");
+    assert!(mean > 26.0, "{values:?}");
+    // At a captured view the renderer gives that view back (errors only at silhouettes).
+    let at_source = masked_psnr(&s, &r, s.pans[7])?;
+    assert!(at_source > mean + 1.0, "at a source {at_source} dB");
+    Ok(())
+}
+
+#[test]
+fn more_views_render_better_and_coverage_is_reported() -> TestResult {
+    let few = setup("lambertian", 8, 64)?;
+    let many = setup("lambertian", 24, 64)?;
+    let pan = Angle::from_degrees(5.0);
+    let r_few = Renderer::new(&few.model, few.sources.clone(), RenderParams::default())?;
+    let r_many = Renderer::new(&many.model, many.sources.clone(), RenderParams::default())?;
+    let (p_few, p_many) = (
+        masked_psnr(&few, &r_few, pan)?,
+        masked_psnr(&many, &r_many, pan)?,
+    );
+    assert!(p_many > p_few + 1.0, "{p_many} vs {p_few}");
+    // Geometry where the object is, fallback elsewhere near it, nothing only off every source.
+    let camera = many.scene.camera(pan)?;
+    let truth = many.scene.render(&camera, &RenderOptions::default())?;
+    let view = r_many.render(&camera)?;
+    let (mut on_object, mut geometry, mut backdrop, mut nothing) = (0, 0, 0, 0);
+    for (x, y, m) in truth.mask.enumerate_pixels() {
+        if m.0[0] != 0 {
+            on_object += 1;
+            geometry += usize::from(view.coverage_at(x, y) == Coverage::Geometry);
+        } else {
+            backdrop += 1;
+            nothing += usize::from(view.coverage_at(x, y) == Coverage::Nothing);
+        }
+    }
+    assert!(
+        geometry as f64 > 0.9 * on_object as f64,
+        "{geometry} of {on_object}"
+    );
+    // The focal surface covers the backdrop, but near the image border (seen by no source).
+    assert!(
+        (nothing as f64) < 0.05 * backdrop as f64,
+        "{nothing} of {backdrop}"
+    );
+    Ok(())
+}
+
+#[test]
+fn the_image_changes_continuously_with_the_camera() -> TestResult {
+    let s = setup("head", 12, 48)?;
+    let r = Renderer::new(&s.model, s.sources.clone(), RenderParams::default())?;
+    let mut previous: Option<RgbImage> = None;
+    let mut worst = 0.0f64;
+    for step in 0..12 {
+        // Small steps across a change of the k best sources.
+        let pan = s.pans[5] + Angle::from_degrees(step as f64 * 0.5);
+        let view = r.render(&s.scene.camera(pan)?)?;
+        if let Some(p) = &previous {
+            let diff: f64 = p
+                .as_raw()
+                .iter()
+                .zip(view.rgb.as_raw())
+                .map(|(a, b)| (*a as f64 - *b as f64).abs())
+                .sum::<f64>()
+                / p.as_raw().len() as f64;
+            worst = worst.max(diff);
+        }
+        previous = Some(view.rgb);
+    }
+    // Half a degree moves the object by a few pixels: a mean change of a few grey levels, no jump.
+    assert!(worst < 6.0, "largest mean change between steps {worst}");
+    Ok(())
+}
+
+#[test]
+fn depth_writes_as_exr_and_reads_back() -> TestResult {
+    let s = setup("chair", 8, 32)?;
+    let r = Renderer::new(&s.model, s.sources.clone(), RenderParams::default())?;
+    let camera = s.scene.camera(Angle::from_degrees(12.0))?;
+    let mut view = RenderedView::new(camera.size);
+    r.render_into(&camera, &mut view)?;
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    write_depth_exr(&view.depth, &mut bytes)?;
+    bytes.set_position(0);
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(bytes)?;
+    let layer = &image.layer_data;
+    assert_eq!((layer.size.0, layer.size.1), (640, 480));
+    let z = layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.eq("Z"))
+        .ok_or("no Z channel")?;
+    let values: Vec<f32> = z.sample_data.values_as_f32().collect();
+    assert_eq!(values.len(), 640 * 480);
+    for (a, b) in values.iter().zip(view.depth.as_raw()) {
+        assert!(a == b || (a.is_infinite() && b.is_infinite()));
+    }
+    // Buffers of the wrong size are refused.
+    let mut small = RenderedView::new(aibr_camera::ImageSize::new(10, 10));
+    assert!(r.render_into(&camera, &mut small).is_err());
+    assert!(Renderer::new(&s.model, Vec::new(), RenderParams::default()).is_err());
+    Ok(())
+}
