@@ -1,0 +1,92 @@
+//! The split planner: where to capture the next view.
+
+use aibr_camera::{Angle, PanRange};
+
+use crate::error::{Error, Result};
+use crate::estimator::PairScore;
+
+/// What the turntable can do, for planning.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TurntableLimits {
+    /// The pan range it can reach.
+    pub range: PanRange,
+    /// Its resolution: the angle of one step. Proposals are whole steps, and never closer
+    /// than one step to an existing view.
+    pub step: Angle,
+}
+
+impl TurntableLimits {
+    /// Limits of a turntable with `range` and `step`; rejects a step that is not positive.
+    pub fn new(range: PanRange, step: Angle) -> Result<Self> {
+        if !(step.radians() > 0.0 && step.radians().is_finite()) {
+            return Err(Error::InvalidParameter {
+                name: "turntable step (rad)",
+                value: step.radians(),
+                reason: "must be positive",
+            });
+        }
+        Ok(TurntableLimits { range, step })
+    }
+
+    /// `angle` rounded to a whole number of steps.
+    pub fn quantise(&self, angle: Angle) -> Angle {
+        let s = self.step.radians();
+        Angle::from_radians((angle.radians() / s).round() * s)
+    }
+}
+
+/// A proposal of the planner.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Proposal {
+    /// The pan angle to capture next (quantised, inside the range).
+    pub pan: Angle,
+    /// The pair whose arc it splits.
+    pub pair: (usize, usize),
+    /// That pair's score.
+    pub score: f64,
+}
+
+/// Splits the worst pair at its middle angle.
+///
+/// Pairs are taken from the worst down, skipping those at or below `consistent_below` (they
+/// already render well); the first whose middle angle, quantised to the turntable's steps,
+/// lies inside the range and at least one step from every existing view is proposed. `None`
+/// when every pair is consistent or too short to split.
+pub fn plan_next(
+    pans: &[Angle],
+    scores: &[PairScore],
+    limits: &TurntableLimits,
+    consistent_below: f64,
+) -> Option<Proposal> {
+    let mut order: Vec<&PairScore> = scores
+        .iter()
+        .filter(|s| s.score > consistent_below)
+        .collect();
+    order.sort_by(|x, y| y.score.total_cmp(&x.score).then(x.a.cmp(&y.a)));
+    let step = limits.step.radians();
+    for s in order {
+        let (Some(pa), Some(pb)) = (pans.get(s.a), pans.get(s.b)) else {
+            continue;
+        };
+        // The arc from a to b, the short way round the pair's own order (b after a).
+        let mut gap = pb.radians() - pa.radians();
+        if gap <= 0.0 {
+            gap += std::f64::consts::TAU;
+        }
+        let middle = limits.quantise(Angle::from_radians(pa.radians() + gap / 2.0));
+        let Some(middle) = limits.range.normalize(middle) else {
+            continue;
+        };
+        let far_enough = pans
+            .iter()
+            .all(|p| middle.wrapped_difference(*p).radians().abs() >= step - 1e-9);
+        if far_enough {
+            return Some(Proposal {
+                pan: middle,
+                pair: (s.a, s.b),
+                score: s.score,
+            });
+        }
+    }
+    None
+}
