@@ -1,0 +1,442 @@
+//! The active capture loop (section 2.4 of the paper), and reconstruction and rendering from a
+//! session.
+
+use std::time::Instant;
+
+use aibr_camera::{Aabb, Angle, PanRange};
+use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
+use aibr_consistency::{ConsistencyParams, PairScore, TurntableLimits, plan_next, score_pairs};
+use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
+use aibr_voxel::{
+    CarvingParams, ColoringParams, Criterion, Reconstruction, View, VoxelGrid, check_cameras_above,
+    space_carving, voxel_coloring,
+};
+use image::GrayImage;
+
+use crate::error::{Error, Result};
+use crate::rig::{FrameSource, Turntable};
+use crate::session::{LoadedView, Session};
+
+/// How the views beyond the initial ones are chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Strategy {
+    /// Split the arc the consistency estimate says renders worst.
+    Active,
+    /// The baseline: every view spread uniformly over the range.
+    Uniform,
+}
+
+impl Strategy {
+    /// `active` or `uniform`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Strategy::Active => "active",
+            Strategy::Uniform => "uniform",
+        }
+    }
+
+    /// Parses `active` or `uniform`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "active" => Ok(Strategy::Active),
+            "uniform" => Ok(Strategy::Uniform),
+            _ => Err(Error::InvalidParameter {
+                name: "strategy",
+                reason: format!("{s:?} is not active or uniform"),
+            }),
+        }
+    }
+}
+
+/// Parameters of [`capture`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CaptureParams {
+    /// The strategy (default active).
+    pub strategy: Strategy,
+    /// Views captured uniformly first (default 12).
+    pub initial: usize,
+    /// The budget (default 48).
+    pub max: usize,
+    /// Reconstruct again every this many captures (default 1).
+    pub refine_every: usize,
+    /// Voxels along the longest edge of the volume (default 96).
+    pub grid: usize,
+    /// Arcs scoring at or below this are consistent; when all are, capture stops (default 0:
+    /// only the budget stops it).
+    pub consistent_below: f64,
+}
+
+impl Default for CaptureParams {
+    fn default() -> Self {
+        CaptureParams {
+            strategy: Strategy::Active,
+            initial: 12,
+            max: 48,
+            refine_every: 1,
+            grid: 96,
+            consistent_below: 0.0,
+        }
+    }
+}
+
+impl CaptureParams {
+    /// Checks the counts.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, reason: &str| {
+            Err(Error::InvalidParameter {
+                name,
+                reason: reason.into(),
+            })
+        };
+        if self.initial < 3 {
+            return bad("initial", "at least 3 views are needed to start");
+        }
+        if self.max < self.initial {
+            return bad("max", "the budget must not be below the initial views");
+        }
+        if self.refine_every == 0 {
+            return bad("refine_every", "must be at least 1");
+        }
+        if !(8..=512).contains(&self.grid) {
+            return bad("grid", "must be between 8 and 512 voxels");
+        }
+        Ok(())
+    }
+}
+
+/// What the loop reports as it goes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Progress {
+    /// A view was captured (`count` of at most `budget`).
+    Captured {
+        /// Views in the session now.
+        count: usize,
+        /// The budget.
+        budget: usize,
+        /// The angle reached.
+        pan: Angle,
+    },
+    /// A model was reconstructed from `views` views.
+    Reconstructed {
+        /// Views used.
+        views: usize,
+        /// `voxel coloring` or `space carving`.
+        algorithm: &'static str,
+    },
+    /// The next view was planned.
+    Planned {
+        /// Where.
+        pan: Angle,
+        /// The score of the arc it splits.
+        score: f64,
+    },
+}
+
+/// Wall time per stage, milliseconds.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StageTimings {
+    /// Moving and capturing (including rendering, on the synthetic rig) and saving.
+    pub capture_ms: f64,
+    /// Reconstruction (voxel coloring or space carving).
+    pub coloring_ms: f64,
+    /// The consistency estimate.
+    pub scoring_ms: f64,
+    /// Everything.
+    pub total_ms: f64,
+}
+
+/// The outcome of [`capture`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureReport {
+    /// The pan angles captured, in capture order.
+    pub pans: Vec<Angle>,
+    /// Views that were already in the session when this run started.
+    pub resumed_from: usize,
+    /// True when the loop stopped before the budget (every arc consistent, or none can be
+    /// split).
+    pub stopped_early: bool,
+    /// Wall time per stage.
+    pub timings: StageTimings,
+    /// The reconstruction algorithm used (the last one).
+    pub algorithm: &'static str,
+}
+
+/// `n` pan angles spread over `range`, limits included, in whole steps.
+pub fn uniform_pans(range: &PanRange, step: Angle, n: usize) -> Vec<Angle> {
+    let limits = TurntableLimits {
+        range: *range,
+        step,
+    };
+    (0..n)
+        .map(|i| {
+            let t = if n > 1 {
+                i as f64 / (n - 1) as f64
+            } else {
+                0.5
+            };
+            let a = limits.quantise(range.min() + range.span() * t);
+            // Rounding can step past a limit: stay inside.
+            let s = step.radians();
+            let mut r = a.radians();
+            if r > range.max().radians() {
+                r -= s;
+            }
+            if r < range.min().radians() {
+                r += s;
+            }
+            Angle::from_radians(r)
+        })
+        .collect()
+}
+
+/// Foreground masks of the views: the recorded ones, or else estimated from the median
+/// backdrop of all the views.
+fn masks_of(views: &[LoadedView]) -> Result<Vec<GrayImage>> {
+    if views.iter().all(|v| v.mask.is_some()) {
+        return Ok(views.iter().filter_map(|v| v.mask.clone()).collect());
+    }
+    let images: Vec<_> = views.iter().map(|v| &v.image).collect();
+    let estimate = median_backdrop(&images)?;
+    views
+        .iter()
+        .map(|v| match &v.mask {
+            Some(m) => Ok(m.clone()),
+            None => Ok(foreground_from_backdrop(
+                &v.image,
+                &estimate,
+                &BackdropDifference::default(),
+            )?),
+        })
+        .collect()
+}
+
+/// Reconstructs a model from loaded views: voxel coloring where every camera is above the
+/// volume, space carving otherwise. Returns the reconstruction and the algorithm's name.
+pub fn reconstruct_views(
+    views: &[LoadedView],
+    masks: &[GrayImage],
+    volume: &Aabb,
+    grid: usize,
+    criterion: Criterion,
+) -> Result<(Reconstruction, &'static str)> {
+    let grid = VoxelGrid::with_resolution(*volume, grid)?;
+    let vs: Vec<View<'_>> = views
+        .iter()
+        .zip(masks)
+        .map(|(v, m)| View {
+            camera: &v.camera,
+            image: &v.image,
+            mask: Some(m),
+        })
+        .collect();
+    if check_cameras_above(&grid, &vs).is_ok() {
+        let params = ColoringParams {
+            criterion,
+            ..ColoringParams::default()
+        };
+        Ok((voxel_coloring(&grid, &vs, &params)?, "voxel coloring"))
+    } else {
+        Ok((
+            space_carving(&grid, &vs, &CarvingParams::default())?,
+            "space carving",
+        ))
+    }
+}
+
+/// Reconstructs the model of a session.
+pub fn reconstruct(
+    session: &Session,
+    grid: usize,
+    criterion: Criterion,
+) -> Result<(Reconstruction, &'static str)> {
+    let views = session.load_views()?;
+    let masks = masks_of(&views)?;
+    reconstruct_views(&views, &masks, &session.volume()?, grid, criterion)
+}
+
+/// Renders the view at pan angle `pan` from a session and its model.
+pub fn render_session(
+    session: &Session,
+    model: &aibr_voxel::VoxelModel,
+    pan: Angle,
+) -> Result<RenderedView> {
+    let (range, _) = session.turntable()?;
+    let pan = range.check(pan)?;
+    let calibration = session.calibration()?;
+    let sources = session
+        .load_views()?
+        .into_iter()
+        .map(|v| SourceView {
+            camera: v.camera,
+            image: v.image,
+        })
+        .collect();
+    let renderer = Renderer::new(model, sources, RenderParams::default())?;
+    Ok(renderer.render(&calibration.camera_at(pan))?)
+}
+
+/// Runs the capture loop on `rig` into `session` (which may already hold views: the loop
+/// continues it, and since every step is deterministic, ends with the views an uninterrupted
+/// run would have).
+///
+/// 1. The initial views, uniform over the range (for the uniform strategy, all `max`).
+/// 2. Active: reconstruct every `refine_every` captures; score each arc between neighbouring
+///    views; split the worst at its middle angle; capture there. Stop at the budget, or when
+///    every arc is consistent or too short to split.
+pub fn capture<R: Turntable + FrameSource>(
+    rig: &mut R,
+    session: &mut Session,
+    params: &CaptureParams,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<CaptureReport> {
+    params.validate()?;
+    let start = Instant::now();
+    let mut timings = StageTimings::default();
+    let range = rig.range();
+    let step = rig.step();
+    let limits = TurntableLimits::new(range, step)?;
+    let resumed_from = session.file().views.len();
+    let mut algorithm = "none";
+    let planned_initial = match params.strategy {
+        Strategy::Active => uniform_pans(&range, step, params.initial),
+        Strategy::Uniform => uniform_pans(&range, step, params.max),
+    };
+    for pan in planned_initial.iter().skip(session.file().views.len()) {
+        shoot(rig, session, *pan, params.max, &mut timings, progress)?;
+    }
+    let mut stopped_early = false;
+    if params.strategy == Strategy::Active {
+        let volume = session.volume()?;
+        let mut scores: Vec<PairScore> = Vec::new();
+        let mut since_refine = 0usize;
+        // On resume, the views after the initial ones were planned from reconstructions made
+        // every `refine_every` captures: restart the count where an uninterrupted run was.
+        let extra = session.file().views.len().saturating_sub(params.initial);
+        let mut must_refine = true;
+        if extra % params.refine_every != 0 {
+            // Rebuild the scores the uninterrupted run had at its last refinement.
+            let refined_at = params.initial + extra - extra % params.refine_every;
+            let views = session.load_views()?;
+            scores = score_views(
+                &views[..refined_at],
+                &volume,
+                params,
+                &range,
+                &mut timings,
+                &mut algorithm,
+            )?;
+            // Remove the arcs that later captures split.
+            let pans: Vec<Angle> = views
+                .iter()
+                .map(|v| Angle::from_radians(v.record.pan_rad))
+                .collect();
+            for v in refined_at..views.len() {
+                scores.retain(|s| !splits(&pans, s, pans[v]));
+            }
+            since_refine = extra % params.refine_every;
+            must_refine = false;
+        }
+        while session.file().views.len() < params.max {
+            if must_refine || since_refine >= params.refine_every {
+                let views = session.load_views()?;
+                scores = score_views(
+                    &views,
+                    &volume,
+                    params,
+                    &range,
+                    &mut timings,
+                    &mut algorithm,
+                )?;
+                progress(Progress::Reconstructed {
+                    views: views.len(),
+                    algorithm,
+                });
+                since_refine = 0;
+                must_refine = false;
+            }
+            let pans = session.pans();
+            let Some(next) = plan_next(&pans, &scores, &limits, params.consistent_below) else {
+                stopped_early = true;
+                break;
+            };
+            progress(Progress::Planned {
+                pan: next.pan,
+                score: next.score,
+            });
+            scores.retain(|s| (s.a, s.b) != next.pair);
+            shoot(rig, session, next.pan, params.max, &mut timings, progress)?;
+            since_refine += 1;
+        }
+    }
+    timings.total_ms = start.elapsed().as_secs_f64() * 1e3;
+    Ok(CaptureReport {
+        pans: session.pans(),
+        resumed_from,
+        stopped_early,
+        timings,
+        algorithm,
+    })
+}
+
+/// Moves, captures and saves one view.
+fn shoot<R: Turntable + FrameSource>(
+    rig: &mut R,
+    session: &mut Session,
+    pan: Angle,
+    budget: usize,
+    timings: &mut StageTimings,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<()> {
+    let t = Instant::now();
+    let step = rig.step();
+    let reached = rig.move_to(pan)?;
+    let frame = rig.capture()?;
+    let steps = (reached.radians() / step.radians()).round() as i64;
+    session.add_view(reached, steps, &frame.image, frame.mask.as_ref())?;
+    timings.capture_ms += t.elapsed().as_secs_f64() * 1e3;
+    progress(Progress::Captured {
+        count: session.file().views.len(),
+        budget,
+        pan: reached,
+    });
+    Ok(())
+}
+
+/// True when `pan` lies inside the arc of `s`.
+fn splits(pans: &[Angle], s: &PairScore, pan: Angle) -> bool {
+    let (a, b) = (pans[s.a].radians(), pans[s.b].radians());
+    let (lo, hi) = if a <= b { (a, b) } else { (b, a) };
+    pan.radians() > lo && pan.radians() < hi
+}
+
+fn score_views(
+    views: &[LoadedView],
+    volume: &Aabb,
+    params: &CaptureParams,
+    range: &PanRange,
+    timings: &mut StageTimings,
+    algorithm: &mut &'static str,
+) -> Result<Vec<PairScore>> {
+    let masks = masks_of(views)?;
+    let t = Instant::now();
+    let (rec, alg) = reconstruct_views(views, &masks, volume, params.grid, Criterion::default())?;
+    timings.coloring_ms += t.elapsed().as_secs_f64() * 1e3;
+    *algorithm = alg;
+    let t = Instant::now();
+    let vs: Vec<View<'_>> = views
+        .iter()
+        .zip(&masks)
+        .map(|(v, m)| View {
+            camera: &v.camera,
+            image: &v.image,
+            mask: Some(m),
+        })
+        .collect();
+    let pans: Vec<Angle> = views
+        .iter()
+        .map(|v| Angle::from_radians(v.record.pan_rad))
+        .collect();
+    let scores = score_pairs(&rec.model, &vs, &pans, range, &ConsistencyParams::default())?;
+    timings.scoring_ms += t.elapsed().as_secs_f64() * 1e3;
+    Ok(scores)
+}

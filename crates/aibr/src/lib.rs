@@ -1,0 +1,84 @@
+//! Active image-based rendering on a turntable: the facade.
+//!
+//! A camera looks at an object on a turntable that only pans. aibr captures a few uniform
+//! views, reconstructs the object by voxel coloring, estimates from colour consistency where
+//! the rendering is worst, turns the object there, captures one more view, and repeats until a
+//! budget; novel views are rendered by depth-driven interpolation of the captured rays.
+//!
+//! This crate composes the others (re-exported below): the rig traits ([`Turntable`],
+//! [`FrameSource`]) with a [`Calibration`] mapping the reached angle to a camera, the synthetic
+//! rig [`SimRig`], the loop [`capture()`](fn@capture), and [`Session`]s on disk.
+//!
+//! ```no_run
+//! use aibr::{CaptureParams, SimRig, capture, new_session};
+//!
+//! let mut rig = SimRig::new("mirror")?;
+//! let calibration = rig.calibration()?;
+//! let params = CaptureParams { initial: 12, max: 24, ..CaptureParams::default() };
+//! let mut session = new_session(std::path::Path::new("mirror-session"), "sim:mirror", &rig, &calibration, &params)?;
+//! let report = capture(&mut rig, &mut session, &params, &mut |p| eprintln!("{p:?}"))?;
+//! println!("{} views: {:?}", report.pans.len(), report.pans);
+//! # Ok::<(), aibr::Error>(())
+//! ```
+//!
+//! # Conventions
+//! The world frame is the turntable frame (Z up the pan axis); pan angles are
+//! `aibr_camera::Angle` in the turntable's absolute range; turntable steps appear only in the
+//! rig adapters and the session records.
+
+pub mod capture;
+pub mod error;
+pub mod rig;
+pub mod session;
+
+pub use aibr_camera as camera;
+pub use aibr_consistency as consistency;
+pub use aibr_render as render;
+pub use aibr_scene as scene;
+pub use aibr_voxel as voxel;
+
+pub use capture::{
+    CaptureParams, CaptureReport, Progress, StageTimings, Strategy, capture, reconstruct,
+    reconstruct_views, render_session, uniform_pans,
+};
+pub use error::{Error, Result};
+pub use rig::{Calibration, Frame, FrameSource, SimRig, Turntable, ptu46_step};
+pub use session::{FORMAT_VERSION, LoadedView, Session, SessionFile, write_atomic};
+
+use session::{CalibrationRecord, ParametersRecord, TurntableRecord};
+
+/// Creates a new session in `dir` for a capture on the synthetic rig `rig` described as
+/// `spec` (e.g. `sim:mirror`), recording the calibration, turntable, volume and parameters.
+pub fn new_session(
+    dir: &std::path::Path,
+    spec: &str,
+    rig: &SimRig,
+    calibration: &Calibration,
+    params: &CaptureParams,
+) -> Result<Session> {
+    params.validate()?;
+    let volume = rig.volume();
+    let range = rig.range();
+    Session::create(
+        dir,
+        SessionFile {
+            format_version: FORMAT_VERSION,
+            rig: spec.to_owned(),
+            calibration: CalibrationRecord::of(calibration),
+            turntable: TurntableRecord {
+                min_rad: range.min().radians(),
+                max_rad: range.max().radians(),
+                step_rad: rig.step().radians(),
+            },
+            volume: [volume.min.coords.into(), volume.max.coords.into()],
+            parameters: ParametersRecord {
+                strategy: params.strategy.name().to_owned(),
+                initial: params.initial,
+                max: params.max,
+                refine_every: params.refine_every,
+                grid: params.grid,
+            },
+            views: Vec::new(),
+        },
+    )
+}

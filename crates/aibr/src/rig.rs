@@ -1,0 +1,152 @@
+//! The rig: a turntable that pans and a camera that takes frames, joined to the algorithms by
+//! a calibration; and the synthetic rig over aibr-scene.
+
+use aibr_camera::{Aabb, Angle, Camera, CircularMotion, PanRange};
+use aibr_scene::{RenderOptions, Scene};
+use image::{GrayImage, RgbImage};
+
+use crate::error::{Error, Result};
+
+/// A turntable: moves to a pan angle and reports the angle it reached.
+pub trait Turntable {
+    /// Moves to `pan` (inside [`range`](Self::range)) and waits until it has settled;
+    /// returns the angle actually reached (the unit moves in whole steps).
+    fn move_to(&mut self, pan: Angle) -> Result<Angle>;
+    /// The pan range the unit can reach.
+    fn range(&self) -> PanRange;
+    /// The angle of one step.
+    fn step(&self) -> Angle;
+}
+
+/// A captured frame, with its foreground mask when the source knows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// The image (undistorted: the calibration's camera has no distortion).
+    pub image: RgbImage,
+    /// The object mask, if the source knows it (a synthetic rig does).
+    pub mask: Option<GrayImage>,
+}
+
+/// A camera that takes a frame after the turntable has settled.
+pub trait FrameSource {
+    /// A frame taken now.
+    fn capture(&mut self) -> Result<Frame>;
+}
+
+/// The camera model and the pose model that map a reached pan angle to a camera.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibration {
+    /// Intrinsics, distortion and size (its pose is ignored).
+    pub camera: Camera,
+    /// The camera pose as a function of pan angle, in the turntable frame.
+    pub motion: CircularMotion,
+}
+
+impl Calibration {
+    /// The camera at pan angle `pan`.
+    pub fn camera_at(&self, pan: Angle) -> Camera {
+        self.camera.with_pose(self.motion.cam_from_world(pan))
+    }
+}
+
+/// The synthetic rig: a catalogue scene on a turntable with the resolution of a PTU-46
+/// (185.1428 arc seconds a step) and its pan range, rendering at the angle it reached.
+pub struct SimRig {
+    scene: Scene,
+    name: String,
+    pan: Angle,
+    step: Angle,
+    options: RenderOptions,
+    captures: u64,
+}
+
+/// The step of a PTU-46 at its default resolution.
+pub fn ptu46_step() -> Angle {
+    Angle::from_degrees(185.1428 / 3600.0)
+}
+
+impl SimRig {
+    /// The synthetic rig of catalogue scene `name`, with 1 grey level of sensor noise.
+    pub fn new(name: &str) -> Result<Self> {
+        let scene = aibr_scene::catalogue::by_name(name)?;
+        Ok(SimRig {
+            scene,
+            name: name.to_owned(),
+            pan: Angle::ZERO,
+            step: ptu46_step(),
+            options: RenderOptions {
+                noise_sigma: 1.0 / 255.0,
+                seed: 0,
+            },
+            captures: 0,
+        })
+    }
+
+    /// Parses `sim:SCENE`.
+    pub fn from_spec(spec: &str) -> Result<Self> {
+        let name = spec
+            .strip_prefix("sim:")
+            .ok_or_else(|| Error::UnknownRig(spec.to_owned()))?;
+        Self::new(name).map_err(|_| Error::UnknownRig(spec.to_owned()))
+    }
+
+    /// The scene's name.
+    pub fn scene_name(&self) -> &str {
+        &self.name
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The rig's calibration (exact: it is synthetic).
+    pub fn calibration(&self) -> Result<Calibration> {
+        Ok(Calibration {
+            camera: self.scene.camera(Angle::ZERO)?,
+            motion: self.scene.rig.ring,
+        })
+    }
+
+    /// The scene's ground-truth reconstruction volume.
+    pub fn volume(&self) -> Aabb {
+        self.scene.bounds()
+    }
+}
+
+impl Turntable for SimRig {
+    fn move_to(&mut self, pan: Angle) -> Result<Angle> {
+        let reached = self.scene.rig.pan_range.check(pan)?;
+        let steps = (reached.radians() / self.step.radians()).round();
+        self.pan = Angle::from_radians(steps * self.step.radians());
+        Ok(self.pan)
+    }
+
+    fn range(&self) -> PanRange {
+        self.scene.rig.pan_range
+    }
+
+    fn step(&self) -> Angle {
+        self.step
+    }
+}
+
+impl FrameSource for SimRig {
+    fn capture(&mut self) -> Result<Frame> {
+        let camera = self.scene.camera(self.pan)?;
+        // Each frame its own noise, the same for the same pan angle in every run.
+        let seed = (self.pan.radians() / self.step.radians()).round() as i64 as u64;
+        let frame = self.scene.render(
+            &camera,
+            &RenderOptions {
+                seed: seed ^ self.options.seed,
+                ..self.options
+            },
+        )?;
+        self.captures += 1;
+        Ok(Frame {
+            image: frame.rgb8(),
+            mask: Some(frame.mask),
+        })
+    }
+}

@@ -1,0 +1,473 @@
+//! Sessions on disk: `session.json`, `views/NNNN.png`, `masks/NNNN.png` and outputs.
+//!
+//! Every write is atomic (a temporary file in the same folder, fsync, rename, fsync of the
+//! folder), so a crash loses at most the view in flight and never leaves a half-written file.
+//! `session.json` records a CRC-32 of every view and mask file; opening a session checks them.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use aibr_camera::{
+    Aabb, Angle, Camera, CircularMotion, Distortion, ImageSize, Intrinsics, PanRange, TurntableAxis,
+};
+use image::{GrayImage, RgbImage};
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, Unit, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::rig::Calibration;
+
+/// The version of `session.json` this code writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// A camera pose in `session.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PoseRecord {
+    /// Rotation as a unit quaternion `[w, x, y, z]`.
+    pub rotation_wxyz: [f64; 4],
+    /// Translation, metres.
+    pub translation: [f64; 3],
+}
+
+/// The calibration in `session.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationRecord {
+    /// `[fx, fy, cx, cy, skew]`, pixels.
+    pub intrinsics: [f64; 5],
+    /// `[k1, k2, p1, p2, k3]`.
+    pub distortion: [f64; 5],
+    /// Image width and height.
+    pub size: [u32; 2],
+    /// A point on the pan axis (turntable frame).
+    pub axis_point: [f64; 3],
+    /// The pan axis direction.
+    pub axis_direction: [f64; 3],
+    /// `cam_from_world` at pan 0.
+    pub cam_from_world_at_zero: PoseRecord,
+}
+
+/// The turntable in `session.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TurntableRecord {
+    /// Lower pan limit, radians.
+    pub min_rad: f64,
+    /// Upper pan limit, radians.
+    pub max_rad: f64,
+    /// One step, radians.
+    pub step_rad: f64,
+}
+
+/// The parameters of the capture in `session.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParametersRecord {
+    /// `active` or `uniform`.
+    pub strategy: String,
+    /// Views captured uniformly first.
+    pub initial: usize,
+    /// The budget of views.
+    pub max: usize,
+    /// Reconstruct every this many captures.
+    pub refine_every: usize,
+    /// Voxels along the longest edge of the volume.
+    pub grid: usize,
+}
+
+/// One view in `session.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ViewRecord {
+    /// Capture order, from 0.
+    pub index: usize,
+    /// The pan angle the turntable reached, radians.
+    pub pan_rad: f64,
+    /// The same in turntable steps.
+    pub pan_steps: i64,
+    /// The image file, relative to the session folder.
+    pub image: String,
+    /// CRC-32 of the image file.
+    pub image_crc32: u32,
+    /// The mask file, if the source gave one.
+    pub mask: Option<String>,
+    /// CRC-32 of the mask file.
+    pub mask_crc32: Option<u32>,
+    /// Capture time, milliseconds since the Unix epoch.
+    pub captured_unix_ms: u64,
+}
+
+/// `session.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SessionFile {
+    /// [`FORMAT_VERSION`].
+    pub format_version: u32,
+    /// The rig, e.g. `sim:mirror`.
+    pub rig: String,
+    /// The calibration used.
+    pub calibration: CalibrationRecord,
+    /// The turntable.
+    pub turntable: TurntableRecord,
+    /// The reconstruction volume `[min, max]` in the turntable frame, metres.
+    pub volume: [[f64; 3]; 2],
+    /// The capture parameters.
+    pub parameters: ParametersRecord,
+    /// The views, in capture order.
+    pub views: Vec<ViewRecord>,
+}
+
+impl CalibrationRecord {
+    /// The record of `c`.
+    pub fn of(c: &Calibration) -> Self {
+        let k = c.camera.intrinsics;
+        let pose = c.motion.cam_from_world_at_zero;
+        let q = pose.rotation.quaternion();
+        CalibrationRecord {
+            intrinsics: [k.fx, k.fy, k.cx, k.cy, k.skew],
+            distortion: c.camera.distortion.to_array(),
+            size: [c.camera.size.width, c.camera.size.height],
+            axis_point: c.motion.axis.point.coords.into(),
+            axis_direction: c.motion.axis.direction.into_inner().into(),
+            cam_from_world_at_zero: PoseRecord {
+                rotation_wxyz: [q.w, q.i, q.j, q.k],
+                translation: pose.translation.vector.into(),
+            },
+        }
+    }
+
+    /// The calibration it records.
+    pub fn calibration(&self) -> Result<Calibration> {
+        let [fx, fy, cx, cy, skew] = self.intrinsics;
+        let p = &self.cam_from_world_at_zero;
+        let [w, x, y, z] = p.rotation_wxyz;
+        let rotation = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
+        let pose =
+            Isometry3::from_parts(Translation3::from(Vector3::from(p.translation)), rotation);
+        let camera = Camera::new(
+            Intrinsics {
+                fx,
+                fy,
+                cx,
+                cy,
+                skew,
+            },
+            Distortion::from_opencv(&self.distortion)?,
+            pose,
+            ImageSize::new(self.size[0], self.size[1]),
+        )?;
+        let direction = Unit::try_new(Vector3::from(self.axis_direction), 1e-9).ok_or(
+            Error::InvalidParameter {
+                name: "calibration axis_direction",
+                reason: "the axis direction is zero".into(),
+            },
+        )?;
+        Ok(Calibration {
+            camera,
+            motion: CircularMotion {
+                axis: TurntableAxis {
+                    point: Point3::from(self.axis_point),
+                    direction,
+                },
+                cam_from_world_at_zero: pose,
+            },
+        })
+    }
+}
+
+/// An open session folder.
+#[derive(Debug, Clone)]
+pub struct Session {
+    dir: PathBuf,
+    file: SessionFile,
+}
+
+/// A view loaded from a session.
+#[derive(Debug, Clone)]
+pub struct LoadedView {
+    /// Its record.
+    pub record: ViewRecord,
+    /// The camera at its pan angle.
+    pub camera: Camera,
+    /// The image.
+    pub image: RgbImage,
+    /// The mask, if recorded.
+    pub mask: Option<GrayImage>,
+}
+
+fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> Error + 'a {
+    move |source| Error::Io {
+        action,
+        path: path.to_owned(),
+        source,
+    }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file beside it, fsync, rename, fsync of
+/// the folder. The old file (if any) stays intact until the rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let mut f = std::fs::File::create(&tmp).map_err(io("creating", &tmp))?;
+    f.write_all(bytes).map_err(io("writing", &tmp))?;
+    f.sync_all().map_err(io("syncing", &tmp))?;
+    drop(f);
+    std::fs::rename(&tmp, path).map_err(io("renaming into place", path))?;
+    if let Ok(d) = std::fs::File::open(dir) {
+        // Make the rename itself durable; not every file system supports it.
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+fn encode_png<P>(img: &image::ImageBuffer<P, Vec<u8>>) -> Result<Vec<u8>>
+where
+    P: image::Pixel<Subpixel = u8> + image::PixelWithColorType,
+{
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)
+        .map_err(|e| Error::Image {
+            path: PathBuf::from("<memory>"),
+            reason: e.to_string(),
+        })?;
+    Ok(out.into_inner())
+}
+
+impl Session {
+    /// Creates a session in `dir` (created if missing); refuses a folder that already holds
+    /// one.
+    pub fn create(dir: &Path, file: SessionFile) -> Result<Self> {
+        if dir.join("session.json").exists() {
+            return Err(Error::SessionExists(dir.to_owned()));
+        }
+        for sub in ["", "views", "masks"] {
+            let d = dir.join(sub);
+            std::fs::create_dir_all(&d).map_err(io("creating", &d))?;
+        }
+        let s = Session {
+            dir: dir.to_owned(),
+            file,
+        };
+        s.save()?;
+        Ok(s)
+    }
+
+    /// Opens the session in `dir`, checking its format and every file's checksum.
+    pub fn open(dir: &Path) -> Result<Self> {
+        let path = dir.join("session.json");
+        if !path.is_file() {
+            return Err(Error::NotASession {
+                path: dir.to_owned(),
+                reason: "it has no session.json".into(),
+            });
+        }
+        let text = std::fs::read_to_string(&path).map_err(io("reading", &path))?;
+        let file: SessionFile = serde_json::from_str(&text).map_err(|e| Error::BadSession {
+            path: path.clone(),
+            reason: format!("line {}, column {}: {e}", e.line(), e.column()),
+        })?;
+        if file.format_version != FORMAT_VERSION {
+            return Err(Error::BadSession {
+                path,
+                reason: format!(
+                    "format version {} (this aibr reads {FORMAT_VERSION})",
+                    file.format_version
+                ),
+            });
+        }
+        for (i, v) in file.views.iter().enumerate() {
+            if v.index != i {
+                return Err(Error::BadSession {
+                    path: path.clone(),
+                    reason: format!("view {i} is recorded with index {}", v.index),
+                });
+            }
+        }
+        let s = Session {
+            dir: dir.to_owned(),
+            file,
+        };
+        for v in &s.file.views {
+            s.check(&v.image, v.image_crc32)?;
+            if let (Some(m), Some(c)) = (&v.mask, v.mask_crc32) {
+                s.check(m, c)?;
+            }
+        }
+        Ok(s)
+    }
+
+    fn check(&self, relative: &str, recorded: u32) -> Result<Vec<u8>> {
+        let path = self.resolve(relative)?;
+        let bytes = std::fs::read(&path).map_err(io("reading", &path))?;
+        let actual = crc32fast::hash(&bytes);
+        if actual != recorded {
+            return Err(Error::Checksum {
+                path,
+                recorded,
+                actual,
+            });
+        }
+        Ok(bytes)
+    }
+
+    /// A path inside the session (refuses names that would leave it).
+    fn resolve(&self, relative: &str) -> Result<PathBuf> {
+        let p = Path::new(relative);
+        if p.is_absolute()
+            || p.components()
+                .any(|c| matches!(c, std::path::Component::ParentDir))
+        {
+            return Err(Error::BadSession {
+                path: self.dir.join("session.json"),
+                reason: format!("file name {relative:?} points outside the session"),
+            });
+        }
+        Ok(self.dir.join(p))
+    }
+
+    /// The session folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// The contents of `session.json`.
+    pub fn file(&self) -> &SessionFile {
+        &self.file
+    }
+
+    /// The calibration.
+    pub fn calibration(&self) -> Result<Calibration> {
+        self.file.calibration.calibration()
+    }
+
+    /// The turntable's range and step.
+    pub fn turntable(&self) -> Result<(PanRange, Angle)> {
+        let t = &self.file.turntable;
+        Ok((
+            PanRange::new(
+                Angle::from_radians(t.min_rad),
+                Angle::from_radians(t.max_rad),
+            )?,
+            Angle::from_radians(t.step_rad),
+        ))
+    }
+
+    /// The reconstruction volume.
+    pub fn volume(&self) -> Result<Aabb> {
+        let [a, b] = self.file.volume;
+        Ok(Aabb::new(Point3::from(a), Point3::from(b))?)
+    }
+
+    /// The pan angles of the views, in capture order.
+    pub fn pans(&self) -> Vec<Angle> {
+        self.file
+            .views
+            .iter()
+            .map(|v| Angle::from_radians(v.pan_rad))
+            .collect()
+    }
+
+    fn save(&self) -> Result<()> {
+        let text = serde_json::to_string_pretty(&self.file).map_err(|e| Error::BadSession {
+            path: self.dir.join("session.json"),
+            reason: e.to_string(),
+        })?;
+        write_atomic(&self.dir.join("session.json"), text.as_bytes())
+    }
+
+    /// Adds a view: writes its image (and mask) atomically, then records it in
+    /// `session.json` (also atomically). A crash between the two leaves an unrecorded file
+    /// that the next capture of that index replaces.
+    pub fn add_view(
+        &mut self,
+        pan: Angle,
+        pan_steps: i64,
+        image: &RgbImage,
+        mask: Option<&GrayImage>,
+    ) -> Result<()> {
+        let size = self.file.calibration.size;
+        let index = self.file.views.len();
+        let name = format!("views/{index:04}.png");
+        if image.dimensions() != (size[0], size[1]) {
+            return Err(Error::ImageSize {
+                path: self.dir.join(&name),
+                width: image.width(),
+                height: image.height(),
+                expected_width: size[0],
+                expected_height: size[1],
+            });
+        }
+        let bytes = encode_png(image)?;
+        write_atomic(&self.dir.join(&name), &bytes)?;
+        let (mask_name, mask_crc32) = match mask {
+            Some(m) => {
+                let mname = format!("masks/{index:04}.png");
+                let mb = encode_png(m)?;
+                write_atomic(&self.dir.join(&mname), &mb)?;
+                (Some(mname), Some(crc32fast::hash(&mb)))
+            }
+            None => (None, None),
+        };
+        let captured_unix_ms = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_millis() as u64);
+        self.file.views.push(ViewRecord {
+            index,
+            pan_rad: pan.radians(),
+            pan_steps,
+            image: name,
+            image_crc32: crc32fast::hash(&bytes),
+            mask: mask_name,
+            mask_crc32,
+            captured_unix_ms,
+        });
+        self.save()
+    }
+
+    /// Loads every view (checksums checked again, sizes against the calibration).
+    pub fn load_views(&self) -> Result<Vec<LoadedView>> {
+        let calibration = self.calibration()?;
+        let size = calibration.camera.size;
+        self.file
+            .views
+            .iter()
+            .map(|v| {
+                let decode = |relative: &str, crc: u32| -> Result<image::DynamicImage> {
+                    let bytes = self.check(relative, crc)?;
+                    let path = self.dir.join(relative);
+                    let img = image::load_from_memory(&bytes).map_err(|e| Error::Image {
+                        path: path.clone(),
+                        reason: e.to_string(),
+                    })?;
+                    if (img.width(), img.height()) != (size.width, size.height) {
+                        return Err(Error::ImageSize {
+                            path,
+                            width: img.width(),
+                            height: img.height(),
+                            expected_width: size.width,
+                            expected_height: size.height,
+                        });
+                    }
+                    Ok(img)
+                };
+                let image = decode(&v.image, v.image_crc32)?.to_rgb8();
+                let mask = match (&v.mask, v.mask_crc32) {
+                    (Some(m), Some(c)) => Some(decode(m, c)?.to_luma8()),
+                    _ => None,
+                };
+                Ok(LoadedView {
+                    record: v.clone(),
+                    camera: calibration.camera_at(Angle::from_radians(v.pan_rad)),
+                    image,
+                    mask,
+                })
+            })
+            .collect()
+    }
+
+    /// Writes an output file (`model.ply`, a render, ...) into the session atomically.
+    pub fn write_output(&self, name: &str, bytes: &[u8]) -> Result<PathBuf> {
+        let path = self.resolve(name)?;
+        write_atomic(&path, bytes)?;
+        Ok(path)
+    }
+}

@@ -1,0 +1,371 @@
+//! `aibr`: capture, reconstruct and render turntable sessions.
+
+use std::path::{Path, PathBuf};
+
+use aibr::camera::Angle;
+use aibr::voxel::{Criterion, PlyOptions, write_ply};
+use aibr::{CaptureParams, Progress, Session, SimRig, Strategy, write_atomic};
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Active image-based rendering on a turntable.
+///
+/// A camera looks at an object turning on a pan unit. `aibr capture` takes a few uniform
+/// views, reconstructs the object, estimates where a rendering would be worst, turns the
+/// object there, captures one more view, and repeats until the budget. The built-in
+/// synthetic rig (`--rig sim:SCENE`) needs no hardware.
+#[derive(Parser)]
+#[command(name = "aibr", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Capture a session: initial uniform views, then one view at a time where the rendering
+    /// is estimated worst (or uniformly, as the baseline).
+    Capture(CaptureArgs),
+    /// Reconstruct a session's voxel model and write it as model.ply into the session.
+    Reconstruct(ReconstructArgs),
+    /// Render a novel view of a session at a pan angle.
+    Render(RenderArgs),
+    /// Synthetic scenes.
+    Scene {
+        #[command(subcommand)]
+        command: SceneCommand,
+    },
+}
+
+#[derive(clap::Args)]
+struct CaptureArgs {
+    /// The rig: sim:SCENE (mirror, head, chair or lambertian) is the built-in synthetic rig.
+    #[arg(long, default_value = "sim:mirror")]
+    rig: String,
+    /// Views captured uniformly over the pan range first.
+    #[arg(long, default_value_t = 12)]
+    initial: usize,
+    /// The budget of views.
+    #[arg(long, default_value_t = 48)]
+    max: usize,
+    /// How views beyond the initial ones are chosen.
+    #[arg(long, value_enum, default_value_t = StrategyArg::Active)]
+    strategy: StrategyArg,
+    /// Reconstruct again every K captures (1: before every planned view).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    refine_every: usize,
+    /// Voxels along the longest edge of the reconstruction volume, while capturing.
+    #[arg(long, default_value_t = 96)]
+    grid: usize,
+    /// The session folder to create (or, with --resume, to continue).
+    #[arg(long, value_name = "SESSION")]
+    out: PathBuf,
+    /// Continue the session in --out where it stopped.
+    #[arg(long)]
+    resume: bool,
+    /// Print a machine-readable summary on standard output.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum StrategyArg {
+    /// Split the arc the consistency estimate says renders worst.
+    Active,
+    /// The baseline: every view spread uniformly.
+    Uniform,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum CriterionArg {
+    /// The paper's non-Lambertian criterion: views agree only with their angular neighbours.
+    Angular,
+    /// Seitz and Dyer's: all views agree.
+    Classic,
+}
+
+#[derive(clap::Args)]
+struct ReconstructArgs {
+    /// The session folder.
+    session: PathBuf,
+    /// Voxels along the longest edge of the volume.
+    #[arg(long, default_value_t = 128)]
+    grid: usize,
+    /// The colour-consistency criterion.
+    #[arg(long, value_enum, default_value_t = CriterionArg::Angular)]
+    criterion: CriterionArg,
+    /// Print a machine-readable summary on standard output.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The session folder.
+    session: PathBuf,
+    /// The pan angle to render, degrees (inside the turntable's range).
+    #[arg(long, allow_hyphen_values = true)]
+    pan: f64,
+    /// The output image (PNG).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write the depth as OpenEXR.
+    #[arg(long)]
+    depth: Option<PathBuf>,
+    /// Voxels along the longest edge of the model used.
+    #[arg(long, default_value_t = 128)]
+    grid: usize,
+}
+
+#[derive(Subcommand)]
+enum SceneCommand {
+    /// Render a catalogue scene at a pan angle of its default rig.
+    Render {
+        /// mirror, head, chair or lambertian.
+        scene: String,
+        /// The pan angle, degrees.
+        #[arg(long, allow_hyphen_values = true)]
+        pan: f64,
+        /// The output image (PNG).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also write the depth as OpenEXR.
+        #[arg(long)]
+        depth: Option<PathBuf>,
+        /// Also write the object mask (PNG).
+        #[arg(long)]
+        mask: Option<PathBuf>,
+    },
+}
+
+fn main() {
+    if let Err(e) = run(Cli::parse()) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Capture(a) => capture(a),
+        Command::Reconstruct(a) => reconstruct(a),
+        Command::Render(a) => render(a),
+        Command::Scene { command } => scene(command),
+    }
+}
+
+fn png(path: &Path, img: &impl PngEncodable) -> Result<()> {
+    let bytes = img.png_bytes()?;
+    write_atomic(path, &bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+trait PngEncodable {
+    fn png_bytes(&self) -> Result<Vec<u8>>;
+}
+
+impl<P> PngEncodable for image::ImageBuffer<P, Vec<u8>>
+where
+    P: image::Pixel<Subpixel = u8> + image::PixelWithColorType,
+{
+    fn png_bytes(&self) -> Result<Vec<u8>> {
+        let mut out = std::io::Cursor::new(Vec::new());
+        self.write_to(&mut out, image::ImageFormat::Png)?;
+        Ok(out.into_inner())
+    }
+}
+
+fn exr(path: &Path, depth: &aibr::voxel::DepthMap) -> Result<()> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    aibr::render::write_depth_exr(depth, &mut out)?;
+    write_atomic(path, &out.into_inner()).with_context(|| format!("writing {}", path.display()))
+}
+
+fn capture(a: CaptureArgs) -> Result<()> {
+    let mut rig = SimRig::from_spec(&a.rig)?;
+    let calibration = rig.calibration()?;
+    let params = CaptureParams {
+        strategy: match a.strategy {
+            StrategyArg::Active => Strategy::Active,
+            StrategyArg::Uniform => Strategy::Uniform,
+        },
+        initial: a.initial,
+        max: a.max,
+        refine_every: a.refine_every,
+        grid: a.grid,
+        ..CaptureParams::default()
+    };
+    let mut session = if a.resume {
+        let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
+        let p = &s.file().parameters;
+        if s.file().rig != a.rig
+            || p.strategy != params.strategy.name()
+            || p.initial != params.initial
+            || p.max != params.max
+            || p.refine_every != params.refine_every
+            || p.grid != params.grid
+        {
+            bail!(
+                "{} was captured with --rig {} --strategy {} --initial {} --max {} --refine-every {} --grid {}: resume with the same options",
+                a.out.display(),
+                s.file().rig,
+                p.strategy,
+                p.initial,
+                p.max,
+                p.refine_every,
+                p.grid
+            );
+        }
+        s
+    } else {
+        aibr::new_session(&a.out, &a.rig, &rig, &calibration, &params)?
+    };
+    let bar = ProgressBar::new(params.max as u64);
+    bar.set_style(ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} views {msg}",
+    )?);
+    bar.set_position(session.file().views.len() as u64);
+    let report = aibr::capture(&mut rig, &mut session, &params, &mut |p| match p {
+        Progress::Captured { count, pan, .. } => {
+            bar.set_position(count as u64);
+            bar.set_message(format!("captured at {:.2} deg", pan.degrees()));
+        }
+        Progress::Reconstructed { views, algorithm } => {
+            bar.set_message(format!("{algorithm} from {views} views"))
+        }
+        Progress::Planned { pan, score } => bar.set_message(format!(
+            "next at {:.2} deg (arc score {score:.0})",
+            pan.degrees()
+        )),
+    })?;
+    bar.finish_and_clear();
+    if a.json {
+        let views: Vec<_> = report
+            .pans
+            .iter()
+            .enumerate()
+            .map(|(i, p)| serde_json::json!({"index": i, "pan_deg": p.degrees()}))
+            .collect();
+        let t = report.timings;
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "session": a.out,
+                "rig": a.rig,
+                "strategy": params.strategy.name(),
+                "resumed_from": report.resumed_from,
+                "stopped_early": report.stopped_early,
+                "algorithm": report.algorithm,
+                "views": views,
+                "timings_ms": {"capture_ms": t.capture_ms, "coloring_ms": t.coloring_ms, "scoring_ms": t.scoring_ms, "total_ms": t.total_ms},
+            }))?
+        );
+    } else {
+        let mut pans: Vec<f64> = report.pans.iter().map(|p| p.degrees()).collect();
+        pans.sort_by(f64::total_cmp);
+        println!(
+            "{} views in {} ({} strategy, {:.1} s)",
+            report.pans.len(),
+            a.out.display(),
+            params.strategy.name(),
+            report.timings.total_ms / 1e3
+        );
+        println!(
+            "pan angles (deg): {}",
+            pans.iter()
+                .map(|p| format!("{p:.1}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    }
+    Ok(())
+}
+
+fn criterion(c: CriterionArg) -> Criterion {
+    match c {
+        CriterionArg::Angular => Criterion::angular(),
+        CriterionArg::Classic => Criterion::classic(),
+    }
+}
+
+fn reconstruct(a: ReconstructArgs) -> Result<()> {
+    let session = Session::open(&a.session)?;
+    let start = std::time::Instant::now();
+    let (rec, algorithm) = aibr::reconstruct(&session, a.grid, criterion(a.criterion))?;
+    let coloring_ms = start.elapsed().as_secs_f64() * 1e3;
+    let mut bytes = Vec::new();
+    write_ply(
+        &rec.model,
+        &mut bytes,
+        &PlyOptions {
+            cubes: false,
+            binary: true,
+        },
+    )?;
+    let path = session.write_output("model.ply", &bytes)?;
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "session": a.session,
+                "model": path,
+                "algorithm": algorithm,
+                "views": session.file().views.len(),
+                "grid": rec.model.grid().dims(),
+                "voxels": rec.model.occupied_count(),
+                "timings_ms": {"coloring_ms": coloring_ms},
+            }))?
+        );
+    } else {
+        println!(
+            "{algorithm}: {} voxels from {} views -> {}",
+            rec.model.occupied_count(),
+            session.file().views.len(),
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+fn render(a: RenderArgs) -> Result<()> {
+    let session = Session::open(&a.session)?;
+    let (rec, _) = aibr::reconstruct(&session, a.grid, Criterion::angular())?;
+    let view = aibr::render_session(&session, &rec.model, Angle::from_degrees(a.pan))?;
+    png(&a.output, &view.rgb)?;
+    if let Some(d) = &a.depth {
+        exr(d, &view.depth)?;
+    }
+    let (g, f, _) = view.coverage_shares();
+    println!(
+        "{} ({:.1}% geometry, {:.1}% focal surface)",
+        a.output.display(),
+        100.0 * g,
+        100.0 * f
+    );
+    Ok(())
+}
+
+fn scene(c: SceneCommand) -> Result<()> {
+    match c {
+        SceneCommand::Render {
+            scene,
+            pan,
+            output,
+            depth,
+            mask,
+        } => {
+            let s = aibr::scene::catalogue::by_name(&scene)?;
+            let camera = s.camera(Angle::from_degrees(pan))?;
+            let frame = s.render(&camera, &aibr::scene::RenderOptions::default())?;
+            png(&output, &frame.rgb8())?;
+            if let Some(d) = &depth {
+                exr(d, &frame.depth)?;
+            }
+            if let Some(m) = &mask {
+                png(m, &frame.mask)?;
+            }
+            println!("{}", output.display());
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,324 @@
+//! The `aibr` binary end to end: capture, kill and resume, bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn aibr() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_aibr"))
+}
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("aibr-cli-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+const SMALL: [&str; 8] = [
+    "--rig",
+    "sim:lambertian",
+    "--initial",
+    "5",
+    "--max",
+    "11",
+    "--grid",
+    "24",
+];
+
+/// `(pan_rad, image_crc32)` of every view of a session.
+fn views(dir: &Path) -> Result<Vec<(f64, u64)>, Box<dyn std::error::Error>> {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json"))?)?;
+    Ok(v["views"]
+        .as_array()
+        .ok_or("no views")?
+        .iter()
+        .map(|r| {
+            (
+                r["pan_rad"].as_f64().unwrap_or(f64::NAN),
+                r["image_crc32"].as_u64().unwrap_or(0),
+            )
+        })
+        .collect())
+}
+
+fn count_views(dir: &Path) -> usize {
+    views(dir).map(|v| v.len()).unwrap_or(0)
+}
+
+/// Kill the capture in the middle, resume, and end with the same views as an uninterrupted
+/// run; no file lost or half-written.
+#[test]
+fn killed_capture_resumes_to_the_same_views() -> TestResult {
+    let whole = temp("whole");
+    let status = aibr()
+        .arg("capture")
+        .args(SMALL)
+        .arg("--out")
+        .arg(&whole)
+        .stdout(Stdio::null())
+        .status()?;
+    assert!(status.success());
+    let expected = views(&whole)?;
+    assert_eq!(expected.len(), 11);
+
+    let killed = temp("killed");
+    let mut child = aibr()
+        .arg("capture")
+        .args(SMALL)
+        .arg("--out")
+        .arg(&killed)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()?;
+    // Kill it once the active phase has begun (more views than the initial 5).
+    let start = Instant::now();
+    while count_views(&killed) < 7 {
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            return Err("the capture made no progress".into());
+        }
+        if child.try_wait()?.is_some() {
+            return Err("the capture finished before it could be killed".into());
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill()?;
+    child.wait()?;
+    let partial = views(&killed)?;
+    assert!(
+        partial.len() >= 7 && partial.len() < 11,
+        "{} views when killed",
+        partial.len()
+    );
+    assert_eq!(
+        partial[..],
+        expected[..partial.len()],
+        "the views before the kill are the same"
+    );
+
+    // Resuming refuses different options, then continues with the same ones.
+    let wrong = aibr()
+        .arg("capture")
+        .args([
+            "--rig",
+            "sim:lambertian",
+            "--initial",
+            "5",
+            "--max",
+            "12",
+            "--grid",
+            "24",
+        ])
+        .arg("--out")
+        .arg(&killed)
+        .arg("--resume")
+        .output()?;
+    assert!(!wrong.status.success());
+    assert!(String::from_utf8_lossy(&wrong.stderr).contains("resume with the same options"));
+    let status = aibr()
+        .arg("capture")
+        .args(SMALL)
+        .arg("--out")
+        .arg(&killed)
+        .arg("--resume")
+        .stdout(Stdio::null())
+        .status()?;
+    assert!(status.success());
+    assert_eq!(views(&killed)?, expected);
+    // Every view file is whole (its checksum matches) and no temporary file is left.
+    let session = aibr::Session::open(&killed)?;
+    assert_eq!(session.load_views()?.len(), 11);
+    for sub in ["", "views", "masks"] {
+        for entry in std::fs::read_dir(killed.join(sub))? {
+            let name = entry?.file_name().to_string_lossy().into_owned();
+            assert!(
+                !name.contains(".tmp-"),
+                "temporary file {name} left in {sub}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&whole);
+    let _ = std::fs::remove_dir_all(&killed);
+    Ok(())
+}
+
+#[test]
+fn reconstruct_and_render_a_session() -> TestResult {
+    let dir = temp("render");
+    let out = aibr()
+        .arg("capture")
+        .args([
+            "--rig",
+            "sim:chair",
+            "--initial",
+            "6",
+            "--max",
+            "6",
+            "--grid",
+            "24",
+        ])
+        .arg("--out")
+        .arg(&dir)
+        .arg("--json")
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    assert_eq!(summary["views"].as_array().map(|v| v.len()), Some(6));
+    assert!(summary["timings_ms"]["capture_ms"].as_f64().is_some());
+
+    let out = aibr()
+        .arg("reconstruct")
+        .arg(&dir)
+        .args(["--grid", "32", "--json"])
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    assert_eq!(summary["algorithm"], "voxel coloring");
+    assert!(summary["timings_ms"]["coloring_ms"].as_f64().is_some());
+    let ply = std::fs::read(dir.join("model.ply"))?;
+    assert!(ply.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
+
+    let png = dir.join("novel.png");
+    let exr = dir.join("novel.exr");
+    let out = aibr()
+        .arg("render")
+        .arg(&dir)
+        .args(["--pan", "-33.5", "--grid", "32", "-o"])
+        .arg(&png)
+        .arg("--depth")
+        .arg(&exr)
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rendered = image::open(&png)?;
+    assert_eq!((rendered.width(), rendered.height()), (640, 480));
+    assert!(std::fs::metadata(&exr)?.len() > 1000);
+
+    // An angle outside the turntable's range is refused and writes nothing.
+    let bad = dir.join("bad.png");
+    let out = aibr()
+        .arg("render")
+        .arg(&dir)
+        .args(["--pan", "175", "-o"])
+        .arg(&bad)
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("outside the range"));
+    assert!(!bad.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+#[test]
+fn bad_sessions_are_refused_and_left_alone() -> TestResult {
+    // Not a session.
+    let empty = temp("empty");
+    std::fs::create_dir_all(&empty)?;
+    let out = aibr().arg("reconstruct").arg(&empty).output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("is not an aibr session"));
+
+    let dir = temp("bad");
+    let status = aibr()
+        .arg("capture")
+        .args([
+            "--rig",
+            "sim:head",
+            "--initial",
+            "4",
+            "--max",
+            "4",
+            "--grid",
+            "16",
+        ])
+        .arg("--out")
+        .arg(&dir)
+        .stdout(Stdio::null())
+        .status()?;
+    assert!(status.success());
+    // A new capture into it is refused.
+    let out = aibr()
+        .arg("capture")
+        .args(["--rig", "sim:head", "--initial", "4", "--max", "4"])
+        .arg("--out")
+        .arg(&dir)
+        .output()?;
+    assert!(String::from_utf8_lossy(&out.stderr).contains("already holds a session"));
+
+    // A corrupt view: checksum mismatch, named.
+    let view = dir.join("views/0002.png");
+    let original = std::fs::read(&view)?;
+    let mut corrupt = original.clone();
+    let last = corrupt.len() - 20;
+    corrupt[last] ^= 0xff;
+    std::fs::write(&view, &corrupt)?;
+    let out = aibr().arg("reconstruct").arg(&dir).output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("0002.png") && err.contains("checksum"),
+        "{err}"
+    );
+    assert!(!dir.join("model.ply").exists(), "nothing written");
+    // A truncated session.json: the line is named.
+    std::fs::write(&view, &original)?;
+    let json = std::fs::read_to_string(dir.join("session.json"))?;
+    std::fs::write(dir.join("session.json"), &json[..json.len() / 2])?;
+    let out = aibr().arg("reconstruct").arg(&dir).output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("session.json") && err.contains("line"),
+        "{err}"
+    );
+    // Unknown rigs and scenes.
+    let out = aibr()
+        .arg("capture")
+        .args(["--rig", "usb:cam"])
+        .arg("--out")
+        .arg(temp("rig"))
+        .output()?;
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected sim:SCENE"));
+    let out = aibr()
+        .args(["scene", "render", "teapot", "--pan", "0", "-o", "x.png"])
+        .output()?;
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown scene"));
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&empty);
+    Ok(())
+}
+
+#[test]
+fn scene_render_writes_image_depth_and_mask() -> TestResult {
+    let dir = temp("scene");
+    std::fs::create_dir_all(&dir)?;
+    let out = aibr()
+        .args(["scene", "render", "mirror", "--pan", "90", "-o"])
+        .arg(dir.join("m.png"))
+        .arg("--depth")
+        .arg(dir.join("m.exr"))
+        .arg("--mask")
+        .arg(dir.join("mask.png"))
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mask = image::open(dir.join("mask.png"))?.to_luma8();
+    assert!(mask.pixels().any(|p| p.0[0] == 255) && mask.pixels().any(|p| p.0[0] == 0));
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
