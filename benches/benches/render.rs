@@ -16,29 +16,15 @@ fn bench(c: &mut Criterion) {
         return;
     };
     let pans = scene.rig.uniform_pans(48);
-    let Ok(cameras) = pans
-        .iter()
-        .map(|p| scene.camera(*p))
-        .collect::<Result<Vec<_>, _>>()
-    else {
+    let Ok(shots) = scene.shoot(&scene.rig.uniform_pans(48), &RenderOptions::default()) else {
         return;
     };
-    let Ok(frames) = cameras
+    let views: Vec<View<'_>> = shots
         .iter()
-        .map(|cam| scene.render(cam, &RenderOptions::default()))
-        .collect::<Result<Vec<_>, _>>()
-    else {
-        return;
-    };
-    let images: Vec<_> = frames.iter().map(|f| f.rgb8()).collect();
-    let views: Vec<View<'_>> = cameras
-        .iter()
-        .zip(&images)
-        .zip(&frames)
-        .map(|((camera, image), f)| View {
-            camera,
-            image,
-            mask: Some(&f.mask),
+        .map(|s| View {
+            camera: &s.camera,
+            image: &s.image,
+            mask: Some(&s.frame.mask),
         })
         .collect();
     let Ok(grid) = VoxelGrid::with_resolution(scene.bounds(), 128) else {
@@ -47,12 +33,11 @@ fn bench(c: &mut Criterion) {
     let Ok(out) = voxel_coloring(&grid, &views, &ColoringParams::default()) else {
         return;
     };
-    let sources = cameras
+    let sources = shots
         .iter()
-        .zip(images.iter().cloned())
-        .map(|(cam, image)| SourceView {
-            camera: cam.clone(),
-            image,
+        .map(|s| SourceView {
+            camera: s.camera.clone(),
+            image: s.image.clone(),
         })
         .collect();
     let Ok(renderer) = Renderer::new(&out.model, sources, RenderParams::default()) else {

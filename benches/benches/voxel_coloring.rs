@@ -19,31 +19,15 @@ fn bench(c: &mut Criterion) {
         noise_sigma: 1.0 / 255.0,
         seed: 1,
     };
-    let Ok(cameras) = scene
-        .rig
-        .uniform_pans(48)
-        .into_iter()
-        .map(|p| scene.camera(p))
-        .collect::<Result<Vec<_>, _>>()
-    else {
+    let Ok(shots) = scene.shoot(&scene.rig.uniform_pans(48), &options) else {
         return;
     };
-    let Ok(frames) = cameras
+    let views: Vec<View<'_>> = shots
         .iter()
-        .map(|cam| scene.render(cam, &options))
-        .collect::<Result<Vec<_>, _>>()
-    else {
-        return;
-    };
-    let images: Vec<_> = frames.iter().map(|f| f.rgb8()).collect();
-    let views: Vec<View<'_>> = cameras
-        .iter()
-        .zip(&images)
-        .zip(&frames)
-        .map(|((camera, image), f)| View {
-            camera,
-            image,
-            mask: Some(&f.mask),
+        .map(|s| View {
+            camera: &s.camera,
+            image: &s.image,
+            mask: Some(&s.frame.mask),
         })
         .collect();
     let params = ColoringParams::default();

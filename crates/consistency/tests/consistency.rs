@@ -28,15 +28,12 @@ fn capture(name: &str, n: usize) -> Result<Capture, Box<dyn std::error::Error>> 
         noise_sigma: 1.0 / 255.0,
         seed: 2,
     };
-    let cameras: Vec<Camera> = pans
-        .iter()
-        .map(|p| scene.camera(*p))
-        .collect::<Result<_, _>>()?;
-    let frames: Vec<Frame> = cameras
-        .iter()
-        .map(|c| scene.render(c, &options))
-        .collect::<Result<_, _>>()?;
-    let images: Vec<RgbImage> = frames.iter().map(|f| f.rgb8()).collect();
+    let (mut cameras, mut frames, mut images) = (Vec::new(), Vec::new(), Vec::new());
+    for s in scene.shoot(&pans, &options)? {
+        cameras.push(s.camera);
+        frames.push(s.frame);
+        images.push(s.image);
+    }
     let views: Vec<View<'_>> = cameras
         .iter()
         .zip(&images)

@@ -35,49 +35,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         for &n in &counts {
             let pans = scene.rig.uniform_pans(n);
-            let cameras: Vec<_> = pans
+            let shots = scene.shoot(&pans, &options)?;
+            let views: Vec<View<'_>> = shots
                 .iter()
-                .map(|p| scene.camera(*p))
-                .collect::<Result<_, _>>()?;
-            let frames: Vec<_> = cameras
-                .iter()
-                .map(|c| scene.render(c, &options))
-                .collect::<Result<_, _>>()?;
-            let images: Vec<_> = frames.iter().map(|f| f.rgb8()).collect();
-            let views: Vec<View<'_>> = cameras
-                .iter()
-                .zip(&images)
-                .zip(&frames)
-                .map(|((camera, image), f)| View {
-                    camera,
-                    image,
-                    mask: Some(&f.mask),
+                .map(|s| View {
+                    camera: &s.camera,
+                    image: &s.image,
+                    mask: Some(&s.frame.mask),
                 })
                 .collect();
             let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
             let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
-            let sources = cameras
+            let sources = shots
                 .iter()
-                .zip(images.iter().cloned())
-                .map(|(c, image)| SourceView {
-                    camera: c.clone(),
-                    image,
+                .map(|s| SourceView {
+                    camera: s.camera.clone(),
+                    image: s.image.clone(),
                 })
                 .collect();
             let renderer = Renderer::new(&model, sources, RenderParams::default())?;
-            if std::env::var("AT_SOURCE").is_ok() {
-                let camera = scene.camera(pans[5])?;
-                let truth = scene.render(&camera, &RenderOptions::default())?;
-                let view = renderer.render(&camera)?;
-                println!(
-                    "at source 5: {:.2} dB",
-                    metrics::psnr(&truth.rgb8(), &view.rgb, Some(&truth.mask))?
-                );
-                let mut sheet = image::RgbImage::new(1280, 480);
-                sheet.copy_from(&truth.rgb8(), 0, 0)?;
-                sheet.copy_from(&view.rgb, 640, 0)?;
-                sheet.save("/tmp/at_source.png")?;
-            }
             let (mut sum, mut worst, mut ssim_sum, mut geo, mut m) =
                 (0.0, f64::INFINITY, 0.0, 0.0, 0);
             for (i, pair) in pans.windows(2).enumerate() {

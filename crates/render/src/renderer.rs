@@ -111,11 +111,6 @@ impl RenderedView {
     }
 }
 
-/// A surface voxel, for splatting.
-struct Splat {
-    centre: Point3<f64>,
-}
-
 struct Source {
     image: RgbImage,
     depth: Vec<f32>,
@@ -143,7 +138,8 @@ pub struct Renderer<'a> {
     params: RenderParams,
     focus: Point3<f64>,
     tolerance: f64,
-    surface: Vec<Splat>,
+    /// Centres of the model's surface voxels, splatted every frame.
+    surface: Vec<Point3<f64>>,
 }
 
 impl<'a> Renderer<'a> {
@@ -227,12 +223,7 @@ impl<'a> Renderer<'a> {
             params,
             focus,
             tolerance: params.occlusion_tolerance_voxels * s,
-            surface: surface
-                .iter()
-                .map(|v| Splat {
-                    centre: grid.centre(*v),
-                })
-                .collect(),
+            surface: surface.iter().map(|v| grid.centre(*v)).collect(),
         })
     }
 
@@ -285,36 +276,8 @@ impl<'a> Renderer<'a> {
         if out.splat.len() != (w * h) as usize {
             out.splat.resize((w * h) as usize, f32::INFINITY);
         }
-        out.splat.fill(f32::INFINITY);
         let s = self.model.grid().voxel_size();
-        let f = camera.intrinsics.fx.max(camera.intrinsics.fy);
-        for v in &self.surface {
-            let z = camera.depth_of(&v.centre);
-            if !(z > 0.0) {
-                continue;
-            }
-            let Some(px) = camera.project(&v.centre) else {
-                continue;
-            };
-            let r = 0.87 * s * f / z + 1.0;
-            let (u0, u1) = (
-                (px.x - r).floor().max(0.0),
-                (px.x + r).ceil().min(w as f64 - 1.0),
-            );
-            let (v0, v1) = (
-                (px.y - r).floor().max(0.0),
-                (px.y + r).ceil().min(h as f64 - 1.0),
-            );
-            if u0 > u1 || v0 > v1 {
-                continue;
-            }
-            for yy in v0 as usize..=v1 as usize {
-                let row = &mut out.splat[yy * w as usize..(yy + 1) * w as usize];
-                for d in &mut row[u0 as usize..=u1 as usize] {
-                    *d = d.min(z as f32);
-                }
-            }
-        }
+        aibr_voxel::splat_depths(&self.surface, s, camera, &mut out.splat);
         let margin = 2.0 * s;
         let rot = camera.world_from_cam().rotation.to_rotation_matrix();
         let focal_depth = camera.depth_of(&self.focus).max(1e-6);

@@ -1,6 +1,6 @@
 //! The renderer and the metrics against ground truth and a peer.
 
-use aibr_camera::{Angle, Camera};
+use aibr_camera::Angle;
 use aibr_render::{
     Coverage, RenderParams, RenderedView, Renderer, SourceView, metrics, write_depth_exr,
 };
@@ -51,15 +51,12 @@ fn setup(name: &str, n: usize, resolution: usize) -> Result<Setup, Box<dyn std::
         noise_sigma: 1.0 / 255.0,
         seed: 1,
     };
-    let cameras: Vec<Camera> = pans
-        .iter()
-        .map(|p| scene.camera(*p))
-        .collect::<Result<_, _>>()?;
-    let frames: Vec<_> = cameras
-        .iter()
-        .map(|c| scene.render(c, &options))
-        .collect::<Result<_, _>>()?;
-    let images: Vec<RgbImage> = frames.iter().map(|f| f.rgb8()).collect();
+    let (mut cameras, mut frames, mut images) = (Vec::new(), Vec::new(), Vec::new());
+    for s in scene.shoot(&pans, &options)? {
+        cameras.push(s.camera);
+        frames.push(s.frame);
+        images.push(s.image);
+    }
     let views: Vec<View<'_>> = cameras
         .iter()
         .zip(&images)

@@ -45,7 +45,7 @@ pub mod shape;
 pub mod texture;
 
 pub use error::{Error, Result};
-pub use render::{Frame, RenderOptions};
+pub use render::{Frame, RenderOptions, Shot};
 pub use scene::{
     Backdrop, Environment, Light, Material, Scene, SceneHit, SceneObject, SceneRig, SkyLight,
 };

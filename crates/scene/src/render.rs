@@ -54,7 +54,38 @@ struct Context<'a> {
     lights_world: Vec<(Point3<f64>, Colour)>,
 }
 
+/// One view of a synthetic capture: the pan angle, its camera, the render and its 8-bit
+/// image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shot {
+    /// The pan angle of the rig.
+    pub pan: aibr_camera::Angle,
+    /// The rig camera there.
+    pub camera: Camera,
+    /// The render (f32 colour, depth, mask).
+    pub frame: Frame,
+    /// The colour quantised to 8 bits.
+    pub image: RgbImage,
+}
+
 impl Scene {
+    /// Renders the rig's views at `pans` (a synthetic capture).
+    pub fn shoot(&self, pans: &[aibr_camera::Angle], options: &RenderOptions) -> Result<Vec<Shot>> {
+        pans.iter()
+            .map(|&pan| {
+                let camera = self.camera(pan)?;
+                let frame = self.render(&camera, options)?;
+                let image = frame.rgb8();
+                Ok(Shot {
+                    pan,
+                    camera,
+                    frame,
+                    image,
+                })
+            })
+            .collect()
+    }
+
     /// Per-render constants for `camera`.
     fn context(&self, camera: &Camera) -> Context<'_> {
         let lab_from_world = Scene::lab_from_world(camera);

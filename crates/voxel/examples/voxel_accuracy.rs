@@ -31,25 +31,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             noise_sigma: 1.0 / 255.0,
             seed: 1,
         };
-        let cameras: Vec<_> = scene
-            .rig
-            .uniform_pans(n_views)
-            .into_iter()
-            .map(|p| scene.camera(p))
-            .collect::<Result<_, _>>()?;
-        let frames: Vec<_> = cameras
+        let shots = scene.shoot(&scene.rig.uniform_pans(n_views), &options)?;
+        let views: Vec<View<'_>> = shots
             .iter()
-            .map(|c| scene.render(c, &options))
-            .collect::<Result<_, _>>()?;
-        let images: Vec<_> = frames.iter().map(|f| f.rgb8()).collect();
-        let views: Vec<View<'_>> = cameras
-            .iter()
-            .zip(&images)
-            .zip(&frames)
-            .map(|((camera, image), f)| View {
-                camera,
-                image,
-                mask: Some(&f.mask),
+            .map(|s| View {
+                camera: &s.camera,
+                image: &s.image,
+                mask: Some(&s.frame.mask),
             })
             .collect();
         let surface: Vec<Point3<f64>> = scene

@@ -100,41 +100,13 @@ impl VoxelModel {
         let (w, h) = (camera.size.width as usize, camera.size.height as usize);
         let grid = self.grid();
         let s = grid.voxel_size();
-        let f = camera.intrinsics.fx.max(camera.intrinsics.fy);
+        let centres: Vec<Point3<f64>> = self
+            .surface_voxels()
+            .into_iter()
+            .map(|v| grid.centre(v))
+            .collect();
         let mut splat = vec![f32::INFINITY; w * h];
-        for v in self.surface_voxels() {
-            let c = grid.centre(v);
-            let z = camera.depth_of(&c);
-            if !(z > 0.0) {
-                continue;
-            }
-            let Some(px) = camera.project(&c) else {
-                continue;
-            };
-            // Distortion bends straight edges: widen the splat by a pixel more for it.
-            let r = 0.87 * s * f / z
-                + if camera.distortion.is_none() {
-                    1.0
-                } else {
-                    2.0
-                };
-            let (u0, u1) = (
-                (px.x - r).floor().max(0.0),
-                (px.x + r).ceil().min(w as f64 - 1.0),
-            );
-            let (v0, v1) = (
-                (px.y - r).floor().max(0.0),
-                (px.y + r).ceil().min(h as f64 - 1.0),
-            );
-            if u0 > u1 || v0 > v1 {
-                continue;
-            }
-            for yy in v0 as usize..=v1 as usize {
-                for d in &mut splat[yy * w + u0 as usize..=yy * w + u1 as usize] {
-                    *d = d.min(z as f32);
-                }
-            }
-        }
+        splat_depths(&centres, s, camera, &mut splat);
         let origin = camera.centre();
         let rot = camera.world_from_cam().rotation;
         let margin = 2.0 * s;
@@ -161,6 +133,51 @@ impl VoxelModel {
             });
         DepthMap::from_raw(w as u32, h as u32, data)
             .unwrap_or_else(|| DepthMap::new(w as u32, h as u32))
+    }
+}
+
+/// Splats voxels (by their centres, edge `voxel_size`) into `out`, a `width * height`
+/// buffer of `camera`'s image: each pixel gets the smallest camera-z of the voxels whose
+/// splat covers it (half the projected voxel diagonal plus a pixel, two with distortion,
+/// so every ray that meets one of the voxels lands in its splat); other pixels are set to
+/// infinity. The fast start of ray casting ([`VoxelModel::depth_map`] and the renderer).
+pub fn splat_depths(centres: &[Point3<f64>], voxel_size: f64, camera: &Camera, out: &mut [f32]) {
+    let (w, h) = (camera.size.width as usize, camera.size.height as usize);
+    out.fill(f32::INFINITY);
+    if out.len() != w * h {
+        return;
+    }
+    let f = camera.intrinsics.fx.max(camera.intrinsics.fy);
+    let pad = if camera.distortion.is_none() {
+        1.0
+    } else {
+        2.0
+    };
+    for c in centres {
+        let z = camera.depth_of(c);
+        if !(z > 0.0) {
+            continue;
+        }
+        let Some(px) = camera.project(c) else {
+            continue;
+        };
+        let r = 0.87 * voxel_size * f / z + pad;
+        let (u0, u1) = (
+            (px.x - r).floor().max(0.0),
+            (px.x + r).ceil().min(w as f64 - 1.0),
+        );
+        let (v0, v1) = (
+            (px.y - r).floor().max(0.0),
+            (px.y + r).ceil().min(h as f64 - 1.0),
+        );
+        if u0 > u1 || v0 > v1 {
+            continue;
+        }
+        for yy in v0 as usize..=v1 as usize {
+            for d in &mut out[yy * w + u0 as usize..=yy * w + u1 as usize] {
+                *d = d.min(z as f32);
+            }
+        }
     }
 }
 

@@ -23,22 +23,17 @@ fn capture(scene: &Scene, n: usize) -> Result<Capture, Box<dyn std::error::Error
         noise_sigma: 1.0 / 255.0,
         seed: 3,
     };
-    let cameras: Vec<Camera> = scene
-        .rig
-        .uniform_pans(n)
-        .into_iter()
-        .map(|p| scene.camera(p))
-        .collect::<Result<_, _>>()?;
-    let frames: Vec<Frame> = cameras
-        .iter()
-        .map(|c| scene.render(c, &options))
-        .collect::<Result<_, _>>()?;
-    let images = frames.iter().map(|f| f.rgb8()).collect();
-    Ok(Capture {
-        cameras,
-        frames,
-        images,
-    })
+    let mut cap = Capture {
+        cameras: Vec::new(),
+        frames: Vec::new(),
+        images: Vec::new(),
+    };
+    for s in scene.shoot(&scene.rig.uniform_pans(n), &options)? {
+        cap.cameras.push(s.camera);
+        cap.frames.push(s.frame);
+        cap.images.push(s.image);
+    }
+    Ok(cap)
 }
 
 impl Capture {
