@@ -189,6 +189,52 @@ pub fn uniform_pans(range: &PanRange, step: Angle, n: usize) -> Vec<Angle> {
         .collect()
 }
 
+/// Estimates the reconstruction volume from the foreground of `views`: the intersection of
+/// their viewing cones (a visual hull on a 64^3 grid over `search`, less what some view does
+/// not see at all), its bounds grown by a voxel and `margin_m` on every side. Errors when no voxel survives (the masks or the search box are
+/// wrong).
+pub fn estimate_volume(views: &[LoadedView], search: &Aabb, margin_m: f64) -> Result<Aabb> {
+    let masks = masks_of(views)?;
+    let grid = VoxelGrid::with_resolution(*search, 64)?;
+    let vs: Vec<View<'_>> = views
+        .iter()
+        .zip(&masks)
+        .map(|(v, m)| View {
+            camera: &v.camera,
+            image: &v.image,
+            mask: Some(m),
+        })
+        .collect();
+    let hull = space_carving(
+        &grid,
+        &vs,
+        &CarvingParams {
+            max_passes: 0,
+            ..CarvingParams::default()
+        },
+    )?;
+    // Silhouettes cannot carve what a view does not see; on a turntable every view frames
+    // the object, so a point outside any view's image is not part of it.
+    let centres = hull
+        .model
+        .occupied
+        .indexed_iter()
+        .filter(|(_, o)| **o)
+        .map(|((k, j, i), _)| grid.centre([i, j, k]))
+        .filter(|c| {
+            views.iter().all(|v| {
+                v.camera
+                    .project(c)
+                    .is_some_and(|px| v.camera.size.contains(px))
+            })
+        });
+    let bounds = Aabb::around(centres).ok_or_else(|| Error::InvalidParameter {
+        name: "volume",
+        reason: "no point is inside every view's foreground: check the masks".into(),
+    })?;
+    Ok(bounds.expanded(grid.voxel_size() + margin_m))
+}
+
 /// Foreground masks of the views: the recorded ones, or else estimated from the median
 /// backdrop of all the views.
 fn masks_of(views: &[LoadedView]) -> Result<Vec<GrayImage>> {
@@ -305,6 +351,12 @@ pub fn capture<R: Turntable + FrameSource>(
         shoot(rig, session, *pan, params.max, &mut timings, progress)?;
     }
     let mut stopped_early = false;
+    if session.volume_pending() {
+        let views = session.load_views()?;
+        let search = search_box(&views);
+        let volume = estimate_volume(&views, &search, 0.005)?;
+        session.set_volume(&volume)?;
+    }
     if params.strategy == Strategy::Active {
         let volume = session.volume()?;
         let mut scores: Vec<PairScore> = Vec::new();
@@ -400,6 +452,22 @@ fn shoot<R: Turntable + FrameSource>(
         pan: reached,
     });
     Ok(())
+}
+
+/// Where to look for the object: a box around the pan axis reaching half-way to the nearest
+/// camera, from the turntable up to the cameras' height.
+fn search_box(views: &[LoadedView]) -> Aabb {
+    let (mut reach, mut top) = (f64::INFINITY, 0.0f64);
+    for v in views {
+        let c = v.camera.centre();
+        reach = reach.min((c.x * c.x + c.y * c.y).sqrt());
+        top = top.max(c.z);
+    }
+    let r = 0.5 * reach;
+    Aabb {
+        min: nalgebra::Point3::new(-r, -r, -0.25 * r),
+        max: nalgebra::Point3::new(r, r, top.max(r)),
+    }
 }
 
 /// True when `pan` lies inside the arc of `s`.

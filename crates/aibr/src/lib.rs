@@ -47,6 +47,17 @@ pub use session::{FORMAT_VERSION, LoadedView, Session, SessionFile, write_atomic
 
 use session::{CalibrationRecord, ParametersRecord, TurntableRecord};
 
+/// Where the reconstruction volume comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VolumeSource {
+    /// The synthetic scene's ground-truth box.
+    Scene,
+    /// A box the user gives (turntable frame, metres).
+    Given(camera::Aabb),
+    /// Estimated from the foreground of the initial views (see [`estimate_volume`]).
+    Estimated,
+}
+
 /// Creates a new session in `dir` for a capture on the synthetic rig `rig` described as
 /// `spec` (e.g. `sim:mirror`), recording the calibration, turntable, volume and parameters.
 pub fn new_session(
@@ -56,8 +67,28 @@ pub fn new_session(
     calibration: &Calibration,
     params: &CaptureParams,
 ) -> Result<Session> {
+    new_session_with_volume(dir, spec, rig, calibration, params, VolumeSource::Scene)
+}
+
+/// Like [`new_session`], with the volume from `volume`.
+pub fn new_session_with_volume(
+    dir: &std::path::Path,
+    spec: &str,
+    rig: &SimRig,
+    calibration: &Calibration,
+    params: &CaptureParams,
+    volume: VolumeSource,
+) -> Result<Session> {
     params.validate()?;
-    let volume = rig.volume();
+    let volume = match volume {
+        VolumeSource::Scene => rig.volume(),
+        VolumeSource::Given(b) => b,
+        // All zeros: estimated after the initial views.
+        VolumeSource::Estimated => camera::Aabb {
+            min: nalgebra::Point3::origin(),
+            max: nalgebra::Point3::origin(),
+        },
+    };
     let range = rig.range();
     Session::create(
         dir,

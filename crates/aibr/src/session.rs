@@ -351,8 +351,27 @@ impl Session {
         ))
     }
 
+    /// True when the volume is still to be estimated from the first views (recorded as all
+    /// zeros).
+    pub fn volume_pending(&self) -> bool {
+        self.file.volume == [[0.0; 3]; 2]
+    }
+
+    /// Records the reconstruction volume.
+    pub fn set_volume(&mut self, volume: &Aabb) -> Result<()> {
+        self.file.volume = [volume.min.coords.into(), volume.max.coords.into()];
+        self.save()
+    }
+
     /// The reconstruction volume.
     pub fn volume(&self) -> Result<Aabb> {
+        if self.volume_pending() {
+            return Err(Error::BadSession {
+                path: self.dir.join("session.json"),
+                reason: "the volume has not been estimated yet (capture the initial views first)"
+                    .into(),
+            });
+        }
         let [a, b] = self.file.volume;
         Ok(Aabb::new(Point3::from(a), Point3::from(b))?)
     }

@@ -58,6 +58,11 @@ struct CaptureArgs {
     /// Voxels along the longest edge of the reconstruction volume, while capturing.
     #[arg(long, default_value_t = 96)]
     grid: usize,
+    /// The reconstruction volume: `scene` (the synthetic scene's true box), `auto` (estimated
+    /// from the foreground of the initial views: the intersection of their viewing cones,
+    /// with a margin), or a box `x0,y0,z0,x1,y1,z1` in metres in the turntable frame.
+    #[arg(long, default_value = "scene", allow_hyphen_values = true)]
+    volume: String,
     /// The session folder to create (or, with --resume, to continue).
     #[arg(long, value_name = "SESSION")]
     out: PathBuf,
@@ -218,7 +223,14 @@ fn capture(a: CaptureArgs) -> Result<()> {
         }
         s
     } else {
-        aibr::new_session(&a.out, &a.rig, &rig, &calibration, &params)?
+        aibr::new_session_with_volume(
+            &a.out,
+            &a.rig,
+            &rig,
+            &calibration,
+            &params,
+            volume_source(&a.volume)?,
+        )?
     };
     let bar = ProgressBar::new(params.max as u64);
     bar.set_style(ProgressStyle::with_template(
@@ -279,6 +291,33 @@ fn capture(a: CaptureArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+fn volume_source(spec: &str) -> Result<aibr::VolumeSource> {
+    match spec {
+        "scene" => Ok(aibr::VolumeSource::Scene),
+        "auto" => Ok(aibr::VolumeSource::Estimated),
+        _ => {
+            let v: Vec<f64> = spec
+                .split(',')
+                .map(|t| t.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .with_context(|| {
+                    format!(
+                        "--volume {spec:?}: expected scene, auto or six numbers x0,y0,z0,x1,y1,z1"
+                    )
+                })?;
+            if v.len() != 6 {
+                bail!(
+                    "--volume {spec:?}: expected six numbers x0,y0,z0,x1,y1,z1, got {}",
+                    v.len()
+                );
+            }
+            let b = aibr::camera::Aabb::new([v[0], v[1], v[2]].into(), [v[3], v[4], v[5]].into())
+                .with_context(|| format!("--volume {spec:?}"))?;
+            Ok(aibr::VolumeSource::Given(b))
+        }
+    }
 }
 
 fn criterion(c: CriterionArg) -> Criterion {

@@ -322,3 +322,57 @@ fn scene_render_writes_image_depth_and_mask() -> TestResult {
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// The volume estimated from the initial views' foreground holds the object, snugly.
+#[test]
+fn volume_estimated_from_the_initial_views() -> TestResult {
+    let dir = temp("auto");
+    let out = aibr()
+        .arg("capture")
+        .args([
+            "--rig",
+            "sim:head",
+            "--initial",
+            "8",
+            "--max",
+            "9",
+            "--grid",
+            "24",
+            "--volume",
+            "auto",
+        ])
+        .arg("--out")
+        .arg(&dir)
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let session = aibr::Session::open(&dir)?;
+    let estimated = session.volume()?;
+    let truth = aibr::scene::catalogue::head()?.object_bounds();
+    for a in 0..3 {
+        assert!(
+            estimated.min[a] <= truth.min[a] && estimated.max[a] >= truth.max[a],
+            "{estimated:?} does not hold {truth:?}"
+        );
+    }
+    let (e, t) = (estimated.extent(), truth.extent());
+    assert!(
+        e.x * e.y * e.z < 3.0 * t.x * t.y * t.z,
+        "{estimated:?} is much larger than {truth:?}"
+    );
+    // A malformed box is refused before anything is written.
+    let bad = temp("badvolume");
+    let out = aibr()
+        .arg("capture")
+        .args(["--volume", "1,2,3"])
+        .arg("--out")
+        .arg(&bad)
+        .output()?;
+    assert!(String::from_utf8_lossy(&out.stderr).contains("six numbers"));
+    assert!(!bad.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
