@@ -3,6 +3,10 @@
 //! `cargo run --release -p aibr-render --example render_quality -- [SCENE...]`
 //! (default: every catalogue scene; 12, 24 and 48 views; 128^3 models). Writes a render
 //! beside its ground truth for each scene to the temporary folder.
+//!
+//! Environment: `VIEWS=12,24` chooses the view counts; `K` and `RES` set the renderer's `k`
+//! and `resolution_weight`; `TRUEMODEL=1` renders from the true scene voxelised at 128^3
+//! instead of the reconstruction, to separate geometry error from rendering error.
 
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
 use aibr_scene::{RenderOptions, catalogue};
@@ -45,7 +49,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 })
                 .collect();
             let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
-            let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
+            let mut model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
+            if std::env::var("TRUEMODEL").is_ok() {
+                // Diagnostic: the true scene voxelised (centre inside an object).
+                model = aibr_voxel::VoxelModel::empty(grid);
+                let [nx, ny, nz] = grid.dims();
+                for k in 0..nz {
+                    for j in 0..ny {
+                        for i in 0..nx {
+                            if scene.inside(&grid.centre([i, j, k]), 0.0) {
+                                model.set([i, j, k], [128; 3]);
+                            }
+                        }
+                    }
+                }
+            }
             let sources = shots
                 .iter()
                 .map(|s| SourceView {
@@ -53,7 +71,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     image: s.image.clone(),
                 })
                 .collect();
-            let renderer = Renderer::new(&model, sources, RenderParams::default())?;
+            let mut params = RenderParams::default();
+            if let Some(k) = std::env::var("K").ok().and_then(|k| k.parse().ok()) {
+                params.k = k;
+            }
+            if let Some(r) = std::env::var("RES").ok().and_then(|k| k.parse().ok()) {
+                params.resolution_weight = r;
+            }
+            let renderer = Renderer::new(&model, sources, params)?;
             let (mut sum, mut worst, mut ssim_sum, mut geo, mut m) =
                 (0.0, f64::INFINITY, 0.0, 0.0, 0);
             for (i, pair) in pans.windows(2).enumerate() {
