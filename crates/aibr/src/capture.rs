@@ -196,15 +196,7 @@ pub fn uniform_pans(range: &PanRange, step: Angle, n: usize) -> Vec<Angle> {
 pub fn estimate_volume(views: &[LoadedView], search: &Aabb, margin_m: f64) -> Result<Aabb> {
     let masks = masks_of(views)?;
     let grid = VoxelGrid::with_resolution(*search, 64)?;
-    let vs: Vec<View<'_>> = views
-        .iter()
-        .zip(&masks)
-        .map(|(v, m)| View {
-            camera: &v.camera,
-            image: &v.image,
-            mask: Some(m),
-        })
-        .collect();
+    let vs = voxel_views(views, &masks);
     let hull = space_carving(
         &grid,
         &vs,
@@ -233,6 +225,19 @@ pub fn estimate_volume(views: &[LoadedView], search: &Aabb, margin_m: f64) -> Re
         reason: "no point is inside every view's foreground: check the masks".into(),
     })?;
     Ok(bounds.expanded(grid.voxel_size() + margin_m))
+}
+
+/// The views with their masks, as the voxel kernels take them.
+fn voxel_views<'a>(views: &'a [LoadedView], masks: &'a [GrayImage]) -> Vec<View<'a>> {
+    views
+        .iter()
+        .zip(masks)
+        .map(|(v, m)| View {
+            camera: &v.camera,
+            image: &v.image,
+            mask: Some(m),
+        })
+        .collect()
 }
 
 /// Foreground masks of the views: the recorded ones, or else estimated from the median
@@ -266,15 +271,7 @@ pub fn reconstruct_views(
     criterion: Criterion,
 ) -> Result<(Reconstruction, &'static str)> {
     let grid = VoxelGrid::with_resolution(*volume, grid)?;
-    let vs: Vec<View<'_>> = views
-        .iter()
-        .zip(masks)
-        .map(|(v, m)| View {
-            camera: &v.camera,
-            image: &v.image,
-            mask: Some(m),
-        })
-        .collect();
+    let vs = voxel_views(views, masks);
     if check_cameras_above(&grid, &vs).is_ok() {
         let params = ColoringParams {
             criterion,
@@ -491,15 +488,7 @@ fn score_views(
     timings.coloring_ms += t.elapsed().as_secs_f64() * 1e3;
     *algorithm = alg;
     let t = Instant::now();
-    let vs: Vec<View<'_>> = views
-        .iter()
-        .zip(&masks)
-        .map(|(v, m)| View {
-            camera: &v.camera,
-            image: &v.image,
-            mask: Some(m),
-        })
-        .collect();
+    let vs = voxel_views(views, &masks);
     let pans: Vec<Angle> = views
         .iter()
         .map(|v| Angle::from_radians(v.record.pan_rad))
