@@ -14,8 +14,8 @@
 //!
 //! | scene | what | ground-truth volume (m) |
 //! |---|---|---|
-//! | `mirror` | a matchbox (printed label texture) with a mirror panel on its -X side, after the paper's "mirror bound with a matches box" | x -0.065..0.060, y -0.045..0.045, z -0.005..0.175 |
-//! | `head` | glossy textured ellipsoid head with nose and ears on a neck and pedestal (Blinn-Phong highlights) | x -0.080..0.080, y -0.080..0.080, z -0.005..0.225 |
+//! | `mirror` | a matchbox (printed label texture) with a mirror panel on its -X side, after the paper's "mirror bound with a matches box" | x -0.0655..0.060, y -0.045..0.045, z -0.005..0.175 |
+//! | `head` | glossy textured ellipsoid head with nose and ears on a neck and pedestal (Blinn-Phong highlights) | x -0.080..0.080, y -0.083..0.080, z -0.005..0.230 |
 //! | `chair` | a chair with four thin legs, a seat and a slatted back (self-occlusion) | x -0.070..0.070, y -0.070..0.070, z -0.005..0.215 |
 //! | `lambertian` | a matte textured block, drum and ball | x -0.070..0.070, y -0.070..0.070, z -0.005..0.200 |
 //!

@@ -309,6 +309,29 @@ fn catalogue_ground_truth() -> TestResult {
     Ok(())
 }
 
+/// The volumes documented in the catalogue's module docs are the ones `bounds` gives.
+#[test]
+fn documented_volumes() -> TestResult {
+    let documented = [
+        ("mirror", [-0.0655, -0.045, -0.005], [0.060, 0.045, 0.175]),
+        ("head", [-0.080, -0.083, -0.005], [0.080, 0.080, 0.230]),
+        ("chair", [-0.070, -0.070, -0.005], [0.070, 0.070, 0.215]),
+        (
+            "lambertian",
+            [-0.070, -0.070, -0.005],
+            [0.070, 0.070, 0.200],
+        ),
+    ];
+    for (name, min, max) in documented {
+        let b = catalogue::by_name(name)?.bounds();
+        for a in 0..3 {
+            assert!((b.min[a] - min[a]).abs() < 1e-9, "{name} min: {b:?}");
+            assert!((b.max[a] - max[a]).abs() < 1e-9, "{name} max: {b:?}");
+        }
+    }
+    Ok(())
+}
+
 #[test]
 fn bad_noise_is_rejected() -> TestResult {
     let scene = catalogue::chair()?;
