@@ -100,6 +100,9 @@ impl CaptureParams {
         if !(8..=512).contains(&self.grid) {
             return bad("grid", "must be between 8 and 512 voxels");
         }
+        if !(self.consistent_below >= 0.0 && self.consistent_below.is_finite()) {
+            return bad("consistent_below", "must be a finite score of 0 or more");
+        }
         Ok(())
     }
 }

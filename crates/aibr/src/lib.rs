@@ -108,6 +108,7 @@ pub fn new_session_with_volume(
                 max: params.max,
                 refine_every: params.refine_every,
                 grid: params.grid,
+                consistent_below: params.consistent_below,
             },
             views: Vec::new(),
         },

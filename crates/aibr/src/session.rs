@@ -70,6 +70,9 @@ pub struct ParametersRecord {
     pub refine_every: usize,
     /// Voxels along the longest edge of the volume.
     pub grid: usize,
+    /// Arcs scoring at or below this are consistent (0: only the budget stops the capture).
+    #[serde(default)]
+    pub consistent_below: f64,
 }
 
 /// One view in `session.json`.

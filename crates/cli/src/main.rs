@@ -58,6 +58,16 @@ struct CaptureArgs {
     /// Voxels along the longest edge of the reconstruction volume, while capturing.
     #[arg(long, default_value_t = 96)]
     grid: usize,
+    /// Stop before the budget once every arc between neighbouring views scores at or below
+    /// this (the summed per-pixel inconsistency of the pair, in pixels); 0 stops only at the
+    /// budget.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "SCORE",
+        allow_hyphen_values = true
+    )]
+    consistent_below: f64,
     /// The reconstruction volume: `scene` (the synthetic scene's true box), `auto` (estimated
     /// from the foreground of the initial views: the intersection of their viewing cones,
     /// with a margin), or a box `x0,y0,z0,x1,y1,z1` in metres in the turntable frame.
@@ -198,7 +208,7 @@ fn capture(a: CaptureArgs) -> Result<()> {
         max: a.max,
         refine_every: a.refine_every,
         grid: a.grid,
-        ..CaptureParams::default()
+        consistent_below: a.consistent_below,
     };
     let mut session = if a.resume {
         let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
@@ -209,16 +219,18 @@ fn capture(a: CaptureArgs) -> Result<()> {
             || p.max != params.max
             || p.refine_every != params.refine_every
             || p.grid != params.grid
+            || p.consistent_below != params.consistent_below
         {
             bail!(
-                "{} was captured with --rig {} --strategy {} --initial {} --max {} --refine-every {} --grid {}: resume with the same options",
+                "{} was captured with --rig {} --strategy {} --initial {} --max {} --refine-every {} --grid {} --consistent-below {}: resume with the same options",
                 a.out.display(),
                 s.file().rig,
                 p.strategy,
                 p.initial,
                 p.max,
                 p.refine_every,
-                p.grid
+                p.grid,
+                p.consistent_below
             );
         }
         s

@@ -376,3 +376,119 @@ fn volume_estimated_from_the_initial_views() -> TestResult {
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// A view of another size (with a matching checksum, so only the size is wrong) and a grid
+/// too large for memory are refused with errors that name the problem.
+#[test]
+fn wrong_sized_views_and_huge_grids_are_refused() -> TestResult {
+    let dir = temp("sizes");
+    let status = aibr()
+        .arg("capture")
+        .args([
+            "--rig",
+            "sim:lambertian",
+            "--initial",
+            "4",
+            "--max",
+            "4",
+            "--grid",
+            "16",
+        ])
+        .arg("--out")
+        .arg(&dir)
+        .stdout(Stdio::null())
+        .status()?;
+    assert!(status.success());
+
+    let out = aibr()
+        .arg("reconstruct")
+        .arg(&dir)
+        .args(["--grid", "100000"])
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("bytes") && err.contains("coarser"),
+        "{err}"
+    );
+    assert!(!dir.join("model.ply").exists());
+
+    // Replace view 1 by a smaller image and record its checksum, as a careless edit would.
+    let small = image::RgbImage::new(320, 240);
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    small.write_to(&mut bytes, image::ImageFormat::Png)?;
+    let bytes = bytes.into_inner();
+    std::fs::write(dir.join("views/0001.png"), &bytes)?;
+    let mut session: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session.json"))?)?;
+    session["views"][1]["image_crc32"] = serde_json::json!(crc32(&bytes));
+    std::fs::write(
+        dir.join("session.json"),
+        serde_json::to_string_pretty(&session)?,
+    )?;
+    let out = aibr().arg("reconstruct").arg(&dir).output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("0001.png") && err.contains("320x240"),
+        "{err}"
+    );
+    assert!(!dir.join("model.ply").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+/// CRC-32 (IEEE), as session.json records it.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+/// With every arc counted consistent, the capture stops after the initial views.
+#[test]
+fn capture_stops_when_every_arc_is_consistent() -> TestResult {
+    let dir = temp("consistent");
+    let out = aibr()
+        .arg("capture")
+        .args([
+            "--rig",
+            "sim:lambertian",
+            "--initial",
+            "4",
+            "--max",
+            "10",
+            "--grid",
+            "16",
+            "--consistent-below",
+            "1e12",
+            "--json",
+        ])
+        .arg("--out")
+        .arg(&dir)
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    assert_eq!(summary["stopped_early"], true);
+    assert_eq!(summary["views"].as_array().map(|v| v.len()), Some(4));
+    let out = aibr()
+        .arg("capture")
+        .args(["--consistent-below", "-1"])
+        .arg("--out")
+        .arg(temp("negative"))
+        .output()?;
+    assert!(String::from_utf8_lossy(&out.stderr).contains("consistent_below"));
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
