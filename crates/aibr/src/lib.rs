@@ -28,6 +28,7 @@
 
 pub mod capture;
 pub mod error;
+pub mod eval;
 pub mod rig;
 pub mod session;
 
@@ -42,6 +43,7 @@ pub use capture::{
     reconstruct_views, render_session, uniform_pans,
 };
 pub use error::{Error, Result};
+pub use eval::{Checkpoint, EvalParams, StrategyEval, evaluate};
 pub use rig::{Calibration, Frame, FrameSource, SimRig, Turntable, ptu46_step};
 pub use session::{FORMAT_VERSION, LoadedView, Session, SessionFile, write_atomic};
 

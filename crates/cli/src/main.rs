@@ -31,6 +31,10 @@ enum Command {
     Reconstruct(ReconstructArgs),
     /// Render a novel view of a session at a pan angle.
     Render(RenderArgs),
+    /// Active against uniform capture, measured against ground truth: at each checkpoint,
+    /// every uncaptured pan angle on a fine grid is rendered and compared with the truth
+    /// inside the object mask (masked PSNR and SSIM, mean and worst arc).
+    Eval(EvalArgs),
     /// Synthetic scenes.
     Scene {
         #[command(subcommand)]
@@ -84,7 +88,46 @@ struct CaptureArgs {
     json: bool,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(clap::Args)]
+struct EvalArgs {
+    /// The rig: sim:SCENE.
+    #[arg(long, default_value = "sim:mirror")]
+    rig: String,
+    /// Views captured uniformly first.
+    #[arg(long, default_value_t = 12)]
+    initial: usize,
+    /// The budget of views.
+    #[arg(long, default_value_t = 48)]
+    max: usize,
+    /// The strategies to compare.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "active,uniform"
+    )]
+    strategy: Vec<StrategyArg>,
+    /// View counts to measure at (default: the initial count, then every 12 up to the budget).
+    #[arg(long, value_delimiter = ',')]
+    checkpoints: Vec<usize>,
+    /// Voxels along the longest edge of the models rendered from.
+    #[arg(long, default_value_t = 128)]
+    grid: usize,
+    /// Voxels along the longest edge while capturing.
+    #[arg(long, default_value_t = 96)]
+    capture_grid: usize,
+    /// Spacing of the evaluated pan angles, degrees.
+    #[arg(long, default_value_t = 1.0)]
+    step_deg: f64,
+    /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
+    #[arg(long, default_value = "aibr-eval")]
+    work: PathBuf,
+    /// Print a machine-readable summary on standard output.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum StrategyArg {
     /// Split the arc the consistency estimate says renders worst.
     Active,
@@ -166,6 +209,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Capture(a) => capture(a),
         Command::Reconstruct(a) => reconstruct(a),
         Command::Render(a) => render(a),
+        Command::Eval(a) => eval(a),
         Command::Scene { command } => scene(command),
     }
 }
@@ -330,6 +374,95 @@ fn volume_source(spec: &str) -> Result<aibr::VolumeSource> {
             Ok(aibr::VolumeSource::Given(b))
         }
     }
+}
+
+fn eval(a: EvalArgs) -> Result<()> {
+    let scene = a
+        .rig
+        .strip_prefix("sim:")
+        .with_context(|| format!("--rig {:?}: eval needs a synthetic rig, sim:SCENE", a.rig))?;
+    let checkpoints = if a.checkpoints.is_empty() {
+        let mut c = vec![a.initial];
+        let mut n = a.initial.div_ceil(12) * 12;
+        while n <= a.max {
+            if n > a.initial {
+                c.push(n);
+            }
+            n += 12;
+        }
+        if c.last() != Some(&a.max) {
+            c.push(a.max);
+        }
+        c
+    } else {
+        a.checkpoints.clone()
+    };
+    let strategies: Vec<Strategy> = a
+        .strategy
+        .iter()
+        .map(|s| match s {
+            StrategyArg::Active => Strategy::Active,
+            StrategyArg::Uniform => Strategy::Uniform,
+        })
+        .collect();
+    let params = aibr::EvalParams {
+        capture: CaptureParams {
+            initial: a.initial,
+            max: a.max,
+            grid: a.capture_grid,
+            ..CaptureParams::default()
+        },
+        checkpoints,
+        grid: a.grid,
+        step: Angle::from_degrees(a.step_deg),
+    };
+    std::fs::create_dir_all(&a.work).with_context(|| format!("creating {}", a.work.display()))?;
+    let bar = ProgressBar::new_spinner();
+    let results = aibr::evaluate(scene, &strategies, &params, &a.work, &mut |m| {
+        bar.set_message(m)
+    })?;
+    bar.finish_and_clear();
+    if a.json {
+        let json: Vec<_> = results
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "strategy": r.strategy.name(),
+                    "checkpoints": r.checkpoints.iter().map(|c| serde_json::json!({
+                        "views": c.views,
+                        "evaluated_views": c.evaluated,
+                        "mean_masked_psnr_db": c.mean_psnr,
+                        "mean_masked_ssim": c.mean_ssim,
+                        "worst_arc_psnr_db": c.worst_arc_psnr,
+                        "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
+                        "pans_deg": c.pans.iter().map(|p| p.degrees()).collect::<Vec<_>>(),
+                    })).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({"rig": a.rig, "results": json}))?
+        );
+    } else {
+        println!(
+            "{:<8} {:>5} {:>12} {:>8} {:>16}",
+            "strategy", "views", "PSNR (dB)", "SSIM", "worst arc (dB)"
+        );
+        for r in &results {
+            for c in &r.checkpoints {
+                println!(
+                    "{:<8} {:>5} {:>12.2} {:>8.3} {:>16.2}",
+                    r.strategy.name(),
+                    c.views,
+                    c.mean_psnr,
+                    c.mean_ssim,
+                    c.worst_arc_psnr
+                );
+            }
+        }
+    }
+    Ok(())
 }
 
 fn criterion(c: CriterionArg) -> Criterion {

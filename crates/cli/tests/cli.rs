@@ -492,3 +492,65 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
+
+/// `aibr eval` on a small configuration: both strategies, every checkpoint, sane figures.
+#[test]
+fn eval_compares_strategies_on_ground_truth() -> TestResult {
+    let work = temp("eval");
+    let out = aibr()
+        .args([
+            "eval",
+            "--rig",
+            "sim:lambertian",
+            "--initial",
+            "4",
+            "--max",
+            "6",
+            "--checkpoints",
+            "4,6",
+        ])
+        .args([
+            "--grid",
+            "24",
+            "--capture-grid",
+            "16",
+            "--step-deg",
+            "40",
+            "--json",
+            "--work",
+        ])
+        .arg(&work)
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let results = summary["results"].as_array().ok_or("no results")?;
+    assert_eq!(results.len(), 2);
+    for r in results {
+        let cps = r["checkpoints"].as_array().ok_or("no checkpoints")?;
+        assert_eq!(
+            cps.iter().map(|c| c["views"].as_u64()).collect::<Vec<_>>(),
+            vec![Some(4), Some(6)]
+        );
+        for c in cps {
+            let psnr = c["mean_masked_psnr_db"].as_f64().ok_or("no psnr")?;
+            assert!(psnr > 8.0 && psnr < 60.0, "{psnr}");
+            assert!(c["evaluated_views"].as_u64().is_some_and(|n| n >= 3));
+            assert!(
+                c["worst_arc_psnr_db"]
+                    .as_f64()
+                    .is_some_and(|w| w <= psnr + 1e-9)
+            );
+        }
+    }
+    let out = aibr()
+        .args(["eval", "--max", "6", "--checkpoints", "7", "--work"])
+        .arg(&work)
+        .output()?;
+    assert!(String::from_utf8_lossy(&out.stderr).contains("checkpoints"));
+    let _ = std::fs::remove_dir_all(&work);
+    Ok(())
+}
