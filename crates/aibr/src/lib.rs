@@ -39,8 +39,8 @@ pub use aibr_scene as scene;
 pub use aibr_voxel as voxel;
 
 pub use capture::{
-    CaptureParams, CaptureReport, Progress, StageTimings, Strategy, capture, reconstruct,
-    reconstruct_views, render_session, uniform_pans,
+    CaptureParams, CaptureReport, Progress, StageTimings, Strategy, capture, estimate_volume,
+    reconstruct, reconstruct_views, render_session, uniform_pans,
 };
 pub use error::{Error, Result};
 pub use eval::{Checkpoint, EvalParams, StrategyEval, evaluate};
