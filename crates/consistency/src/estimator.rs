@@ -12,8 +12,11 @@ use crate::error::{Error, Result};
 /// Parameters of [`score_pairs`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ConsistencyParams {
+    /// RMS colour differences (grey levels) up to this count as consistent: the small
+    /// misregistration any model and resampling leave on textured surfaces (default 25).
+    pub colour_tolerance: f32,
     /// RMS colour difference (grey levels) at which a pixel counts as fully inconsistent;
-    /// smaller differences count in proportion (default 40).
+    /// between the tolerance and this, in proportion (default 60).
     pub colour_scale: f32,
     /// A point is visible in the other view when at most this many voxels behind that view's
     /// own depth of the model (default 2).
@@ -23,7 +26,8 @@ pub struct ConsistencyParams {
 impl Default for ConsistencyParams {
     fn default() -> Self {
         ConsistencyParams {
-            colour_scale: 40.0,
+            colour_tolerance: 25.0,
+            colour_scale: 60.0,
             occlusion_tolerance_voxels: 2.0,
         }
     }
@@ -75,8 +79,9 @@ pub fn ring_pairs(pans: &[Angle], range: &PanRange) -> Vec<(usize, usize)> {
 /// For each foreground pixel of one view: where the model has no surface, the pixel is
 /// unexplained and counts 1 (this is what makes the mirror side of the paper's object score
 /// worst: voxel coloring leaves a hole there); otherwise the surface point is projected into
-/// the other view and, where that view sees it unoccluded, the RMS colour difference divided
-/// by `colour_scale` (at most 1) counts. Both directions are summed.
+/// the other view and, where that view sees it unoccluded, the RMS colour difference counts:
+/// nothing up to `colour_tolerance`, 1 from `colour_scale`, in proportion between. Both
+/// directions are summed.
 pub fn score_pairs(
     model: &VoxelModel,
     views: &[View<'_>],
@@ -90,11 +95,11 @@ pub fn score_pairs(
             views: views.len(),
         });
     }
-    if !(params.colour_scale > 0.0) {
+    if !(params.colour_tolerance >= 0.0 && params.colour_scale > params.colour_tolerance) {
         return Err(Error::InvalidParameter {
             name: "colour_scale",
             value: params.colour_scale as f64,
-            reason: "must be positive",
+            reason: "must exceed a non-negative colour_tolerance",
         });
     }
     for (i, v) in views.iter().enumerate() {
@@ -124,20 +129,10 @@ pub fn score_pairs(
         .par_iter()
         .map(|&(a, b)| {
             let ab = one_way(
-                &views[a],
-                &depths[a],
-                &views[b],
-                &depths[b],
-                tolerance,
-                params.colour_scale,
+                &views[a], &depths[a], &views[b], &depths[b], tolerance, params,
             );
             let ba = one_way(
-                &views[b],
-                &depths[b],
-                &views[a],
-                &depths[a],
-                tolerance,
-                params.colour_scale,
+                &views[b], &depths[b], &views[a], &depths[a], tolerance, params,
             );
             PairScore {
                 a,
@@ -166,7 +161,7 @@ fn one_way(
     to: &View<'_>,
     to_depth: &DepthMap,
     tolerance: f64,
-    scale: f32,
+    params: &ConsistencyParams,
 ) -> OneWay {
     let size = from.camera.size;
     let mut map = GrayImage::new(size.width, size.height);
@@ -210,7 +205,9 @@ fn one_way(
         let c = sample(to.image, q.x, q.y);
         let s = from.image.get_pixel(x, y).0;
         let diff = ((0..3).map(|i| (s[i] as f32 - c[i]).powi(2)).sum::<f32>() / 3.0).sqrt();
-        let e = (diff / scale).min(1.0);
+        let e = ((diff - params.colour_tolerance)
+            / (params.colour_scale - params.colour_tolerance))
+            .clamp(0.0, 1.0);
         score += e as f64;
         compared += 1;
         map.put_pixel(x, y, image::Luma([(e * 255.0).round() as u8]));
