@@ -46,12 +46,15 @@ pub struct Proposal {
     pub score: f64,
 }
 
-/// Splits the worst pair at its middle angle.
+/// Splits the worst arc at its middle angle.
 ///
-/// Pairs are taken from the worst down, skipping those at or below `consistent_below` (they
-/// already render well); the first whose middle angle, quantised to the turntable's steps,
-/// lies inside the range and at least one step from every existing view is proposed. `None`
-/// when every pair is consistent or too short to split.
+/// Arcs are ranked by their score times their angular width: an inconsistency the model
+/// cannot explain (the hole voxel coloring leaves on a mirror) shows in every view near it,
+/// however close, so the score alone would split the same arc again and again, while the
+/// rendering error over an arc grows with its width. Arcs scoring at or below
+/// `consistent_below` are skipped (they already render well); the first whose middle angle,
+/// quantised to the turntable's steps, lies inside the range and at least one step from every
+/// existing view is proposed. `None` when every arc is consistent or too short to split.
 pub fn plan_next(
     pans: &[Angle],
     scores: &[PairScore],
