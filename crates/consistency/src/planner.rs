@@ -61,21 +61,26 @@ pub fn plan_next(
     limits: &TurntableLimits,
     consistent_below: f64,
 ) -> Option<Proposal> {
-    let mut order: Vec<&PairScore> = scores
+    // The arc from a to b, in the pair's own order (b after a, a turn later across the wrap).
+    let gap = |s: &PairScore| -> Option<f64> {
+        let (pa, pb) = (pans.get(s.a)?, pans.get(s.b)?);
+        let mut g = pb.radians() - pa.radians();
+        if g <= 0.0 {
+            g += std::f64::consts::TAU;
+        }
+        Some(g)
+    };
+    let mut order: Vec<(f64, &PairScore)> = scores
         .iter()
         .filter(|s| s.score > consistent_below)
+        .filter_map(|s| gap(s).map(|g| (s.score * g, s)))
         .collect();
-    order.sort_by(|x, y| y.score.total_cmp(&x.score).then(x.a.cmp(&y.a)));
+    order.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.a.cmp(&y.1.a)));
     let step = limits.step.radians();
-    for s in order {
-        let (Some(pa), Some(pb)) = (pans.get(s.a), pans.get(s.b)) else {
+    for (_, s) in order {
+        let (Some(pa), Some(gap)) = (pans.get(s.a), gap(s)) else {
             continue;
         };
-        // The arc from a to b, the short way round the pair's own order (b after a).
-        let mut gap = pb.radians() - pa.radians();
-        if gap <= 0.0 {
-            gap += std::f64::consts::TAU;
-        }
         let middle = limits.quantise(Angle::from_radians(pa.radians() + gap / 2.0));
         let Some(middle) = limits.range.normalize(middle) else {
             continue;
