@@ -44,6 +44,19 @@ fn views(dir: &Path) -> Result<Vec<(f64, u64)>, Box<dyn std::error::Error>> {
         .collect())
 }
 
+/// Runs `aibr capture ARGS --out DIR` and checks that it succeeded.
+fn capture_ok(args: &[&str], dir: &Path) -> TestResult {
+    let status = aibr()
+        .arg("capture")
+        .args(args)
+        .arg("--out")
+        .arg(dir)
+        .stdout(Stdio::null())
+        .status()?;
+    assert!(status.success(), "aibr capture {args:?} failed");
+    Ok(())
+}
+
 fn count_views(dir: &Path) -> usize {
     views(dir).map(|v| v.len()).unwrap_or(0)
 }
@@ -53,14 +66,7 @@ fn count_views(dir: &Path) -> usize {
 #[test]
 fn killed_capture_resumes_to_the_same_views() -> TestResult {
     let whole = temp("whole");
-    let status = aibr()
-        .arg("capture")
-        .args(SMALL)
-        .arg("--out")
-        .arg(&whole)
-        .stdout(Stdio::null())
-        .status()?;
-    assert!(status.success());
+    capture_ok(&SMALL, &whole)?;
     let expected = views(&whole)?;
     assert_eq!(expected.len(), 11);
 
@@ -233,9 +239,8 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
     assert!(String::from_utf8_lossy(&out.stderr).contains("is not an aibr session"));
 
     let dir = temp("bad");
-    let status = aibr()
-        .arg("capture")
-        .args([
+    capture_ok(
+        &[
             "--rig",
             "sim:head",
             "--initial",
@@ -244,12 +249,9 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
             "4",
             "--grid",
             "16",
-        ])
-        .arg("--out")
-        .arg(&dir)
-        .stdout(Stdio::null())
-        .status()?;
-    assert!(status.success());
+        ],
+        &dir,
+    )?;
     // A new capture into it is refused.
     let out = aibr()
         .arg("capture")
@@ -382,9 +384,8 @@ fn volume_estimated_from_the_initial_views() -> TestResult {
 #[test]
 fn wrong_sized_views_and_huge_grids_are_refused() -> TestResult {
     let dir = temp("sizes");
-    let status = aibr()
-        .arg("capture")
-        .args([
+    capture_ok(
+        &[
             "--rig",
             "sim:lambertian",
             "--initial",
@@ -393,12 +394,9 @@ fn wrong_sized_views_and_huge_grids_are_refused() -> TestResult {
             "4",
             "--grid",
             "16",
-        ])
-        .arg("--out")
-        .arg(&dir)
-        .stdout(Stdio::null())
-        .status()?;
-    assert!(status.success());
+        ],
+        &dir,
+    )?;
 
     let out = aibr()
         .arg("reconstruct")
