@@ -49,7 +49,9 @@ pub enum Error {
     #[error("{0} already holds a session: pass --resume to continue it, or choose another folder")]
     SessionExists(PathBuf),
     /// A rig description could not be understood.
-    #[error("unknown rig {0:?}: expected sim:SCENE (scenes: mirror, head, chair, lambertian)")]
+    #[error(
+        "unknown rig {0:?}: expected sim:SCENE (scenes: mirror, head, chair, lambertian), or a turntable ptu:PATH"
+    )]
     UnknownRig(String),
     /// A parameter is out of its domain.
     #[error("invalid {name}: {reason}")]
@@ -99,6 +101,9 @@ pub enum Error {
     /// From aibr-render.
     #[error(transparent)]
     Render(#[from] aibr_render::Error),
+    /// From the PTU-46 driver.
+    #[error("PTU: {0}")]
+    Ptu(#[from] aibr_ptu::Error),
 }
 
 /// Result alias of aibr.

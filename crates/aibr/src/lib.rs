@@ -29,11 +29,13 @@
 pub mod capture;
 pub mod error;
 pub mod eval;
+mod ptu_rig;
 pub mod rig;
 pub mod session;
 
 pub use aibr_camera as camera;
 pub use aibr_consistency as consistency;
+pub use aibr_ptu as ptu;
 pub use aibr_render as render;
 pub use aibr_scene as scene;
 pub use aibr_voxel as voxel;
@@ -44,7 +46,8 @@ pub use capture::{
 };
 pub use error::{Error, Result};
 pub use eval::{Checkpoint, EvalParams, StrategyEval, evaluate};
-pub use rig::{Calibration, Frame, FrameSource, SimRig, Turntable, ptu46_step};
+pub use ptu_rig::PtuTurntable;
+pub use rig::{Calibration, Frame, FrameSource, Rig, SceneCamera, SimRig, Turntable, ptu46_step};
 pub use session::{FORMAT_VERSION, LoadedView, Session, SessionFile, write_atomic};
 
 use session::{CalibrationRecord, ParametersRecord, TurntableRecord};
@@ -60,30 +63,36 @@ pub enum VolumeSource {
     Estimated,
 }
 
-/// Creates a new session in `dir` for a capture on the synthetic rig `rig` described as
-/// `spec` (e.g. `sim:mirror`), recording the calibration, turntable, volume and parameters.
-pub fn new_session(
+/// Creates a new session in `dir` for a capture on `rig` described as `spec` (e.g.
+/// `sim:mirror`), recording the calibration, turntable, volume and parameters.
+pub fn new_session<R: Turntable + FrameSource>(
     dir: &std::path::Path,
     spec: &str,
-    rig: &SimRig,
+    rig: &R,
     calibration: &Calibration,
     params: &CaptureParams,
 ) -> Result<Session> {
     new_session_with_volume(dir, spec, rig, calibration, params, VolumeSource::Scene)
 }
 
-/// Like [`new_session`], with the volume from `volume`.
-pub fn new_session_with_volume(
+/// Like [`new_session`], with the volume from `volume` ([`VolumeSource::Scene`] needs a rig
+/// whose camera is synthetic).
+pub fn new_session_with_volume<R: Turntable + FrameSource>(
     dir: &std::path::Path,
     spec: &str,
-    rig: &SimRig,
+    rig: &R,
     calibration: &Calibration,
     params: &CaptureParams,
     volume: VolumeSource,
 ) -> Result<Session> {
     params.validate()?;
     let volume = match volume {
-        VolumeSource::Scene => rig.volume(),
+        VolumeSource::Scene => rig.known_volume().ok_or_else(|| Error::InvalidParameter {
+            name: "volume",
+            reason: "this rig's camera is not synthetic, so there is no true volume: \
+                     estimate it (auto) or give a box"
+                .into(),
+        })?,
         VolumeSource::Given(b) => b,
         // All zeros: estimated after the initial views.
         VolumeSource::Estimated => camera::Aabb {

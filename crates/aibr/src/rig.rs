@@ -31,6 +31,51 @@ pub struct Frame {
 pub trait FrameSource {
     /// A frame taken now.
     fn capture(&mut self) -> Result<Frame>;
+
+    /// Told the angle the turntable reached before each capture. A real camera sees the
+    /// turn and ignores this; a synthetic one renders its scene at that angle.
+    fn turntable_at(&mut self, _pan: Angle) {}
+
+    /// The true reconstruction volume of what the camera sees, when it is synthetic.
+    fn known_volume(&self) -> Option<Aabb> {
+        None
+    }
+}
+
+/// A rig made of a turntable and a camera from different sources (for example the PTU-46
+/// turning a synthetic scene): the camera is told every angle the turntable reaches.
+#[derive(Debug)]
+pub struct Rig<T, C> {
+    /// The turntable.
+    pub turntable: T,
+    /// The camera.
+    pub camera: C,
+}
+
+impl<T: Turntable, C: FrameSource> Turntable for Rig<T, C> {
+    fn move_to(&mut self, pan: Angle) -> Result<Angle> {
+        let reached = self.turntable.move_to(pan)?;
+        self.camera.turntable_at(reached);
+        Ok(reached)
+    }
+
+    fn range(&self) -> PanRange {
+        self.turntable.range()
+    }
+
+    fn step(&self) -> Angle {
+        self.turntable.step()
+    }
+}
+
+impl<T, C: FrameSource> FrameSource for Rig<T, C> {
+    fn capture(&mut self) -> Result<Frame> {
+        self.camera.capture()
+    }
+
+    fn known_volume(&self) -> Option<Aabb> {
+        self.camera.known_volume()
+    }
 }
 
 /// The camera model and the pose model that map a reached pan angle to a camera.
@@ -49,45 +94,49 @@ impl Calibration {
     }
 }
 
-/// The synthetic rig: a catalogue scene on a turntable with the resolution of a PTU-46
-/// (185.1428 arc seconds a step) and its pan range, rendering at the angle it reached.
-pub struct SimRig {
+/// A synthetic camera: a catalogue scene rendered, with sensor noise, at the angle the
+/// turntable reports.
+pub struct SceneCamera {
     scene: Scene,
     name: String,
     pan: Angle,
-    step: Angle,
+    /// The angle whose multiples seed the noise (a frame's noise depends on its step).
+    seed_step: Angle,
     options: RenderOptions,
-    captures: u64,
 }
 
-/// The step of a PTU-46 at its default resolution.
-pub fn ptu46_step() -> Angle {
-    Angle::from_degrees(185.1428 / 3600.0)
+impl std::fmt::Debug for SceneCamera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SceneCamera")
+            .field("scene", &self.name)
+            .field("pan", &self.pan)
+            .finish_non_exhaustive()
+    }
 }
 
-impl SimRig {
-    /// The synthetic rig of catalogue scene `name`, with 1 grey level of sensor noise.
-    pub fn new(name: &str) -> Result<Self> {
+impl SceneCamera {
+    /// The camera of catalogue scene `name`, with 1 grey level of sensor noise; each frame's
+    /// noise is seeded by its pan angle in multiples of `seed_step`, so a run is repeatable.
+    pub fn new(name: &str, seed_step: Angle) -> Result<Self> {
         let scene = aibr_scene::catalogue::by_name(name)?;
-        Ok(SimRig {
+        Ok(SceneCamera {
             scene,
             name: name.to_owned(),
             pan: Angle::ZERO,
-            step: ptu46_step(),
+            seed_step,
             options: RenderOptions {
                 noise_sigma: 1.0 / 255.0,
                 seed: 0,
             },
-            captures: 0,
         })
     }
 
     /// Parses `sim:SCENE`.
-    pub fn from_spec(spec: &str) -> Result<Self> {
+    pub fn from_spec(spec: &str, seed_step: Angle) -> Result<Self> {
         let name = spec
             .strip_prefix("sim:")
             .ok_or_else(|| Error::UnknownRig(spec.to_owned()))?;
-        Self::new(name).map_err(|_| Error::UnknownRig(spec.to_owned()))
+        Self::new(name, seed_step).map_err(|_| Error::UnknownRig(spec.to_owned()))
     }
 
     /// The scene's name.
@@ -100,30 +149,107 @@ impl SimRig {
         &self.scene
     }
 
-    /// The rig's calibration (exact: it is synthetic).
+    /// The camera's calibration (exact: it is synthetic).
     pub fn calibration(&self) -> Result<Calibration> {
         Ok(Calibration {
             camera: self.scene.camera(Angle::ZERO)?,
             motion: self.scene.rig.ring,
         })
     }
+}
+
+impl FrameSource for SceneCamera {
+    fn capture(&mut self) -> Result<Frame> {
+        let camera = self.scene.camera(self.pan)?;
+        // Each frame its own noise, the same for the same pan angle in every run.
+        let seed = (self.pan.radians() / self.seed_step.radians()).round() as i64 as u64;
+        let frame = self.scene.render(
+            &camera,
+            &RenderOptions {
+                seed: seed ^ self.options.seed,
+                ..self.options
+            },
+        )?;
+        Ok(Frame {
+            image: frame.rgb8(),
+            mask: Some(frame.mask),
+        })
+    }
+
+    fn turntable_at(&mut self, pan: Angle) {
+        self.pan = pan;
+    }
+
+    fn known_volume(&self) -> Option<Aabb> {
+        Some(self.scene.bounds())
+    }
+}
+
+/// The synthetic rig: a catalogue scene on a turntable with the resolution of a PTU-46
+/// (185.1428 arc seconds a step) and its pan range, rendering at the angle it reached.
+#[derive(Debug)]
+pub struct SimRig {
+    camera: SceneCamera,
+    pan: Angle,
+    step: Angle,
+}
+
+/// The step of a PTU-46 at its default resolution.
+pub fn ptu46_step() -> Angle {
+    Angle::from_degrees(185.1428 / 3600.0)
+}
+
+impl SimRig {
+    /// The synthetic rig of catalogue scene `name`, with 1 grey level of sensor noise.
+    pub fn new(name: &str) -> Result<Self> {
+        Ok(SimRig {
+            camera: SceneCamera::new(name, ptu46_step())?,
+            pan: Angle::ZERO,
+            step: ptu46_step(),
+        })
+    }
+
+    /// Parses `sim:SCENE`.
+    pub fn from_spec(spec: &str) -> Result<Self> {
+        Ok(SimRig {
+            camera: SceneCamera::from_spec(spec, ptu46_step())?,
+            pan: Angle::ZERO,
+            step: ptu46_step(),
+        })
+    }
+
+    /// The scene's name.
+    pub fn scene_name(&self) -> &str {
+        self.camera.scene_name()
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        self.camera.scene()
+    }
+
+    /// The rig's calibration (exact: it is synthetic).
+    pub fn calibration(&self) -> Result<Calibration> {
+        self.camera.calibration()
+    }
 
     /// The scene's ground-truth reconstruction volume.
     pub fn volume(&self) -> Aabb {
-        self.scene.bounds()
+        self.scene().bounds()
     }
 }
 
 impl Turntable for SimRig {
     fn move_to(&mut self, pan: Angle) -> Result<Angle> {
-        let reached = self.scene.rig.pan_range.check(pan)?;
+        let reached = self.scene().rig.pan_range.check(pan)?;
         let steps = (reached.radians() / self.step.radians()).round();
         self.pan = Angle::from_radians(steps * self.step.radians());
+        self.camera.turntable_at(self.pan);
         Ok(self.pan)
     }
 
     fn range(&self) -> PanRange {
-        self.scene.rig.pan_range
+        self.scene().rig.pan_range
     }
 
     fn step(&self) -> Angle {
@@ -133,20 +259,10 @@ impl Turntable for SimRig {
 
 impl FrameSource for SimRig {
     fn capture(&mut self) -> Result<Frame> {
-        let camera = self.scene.camera(self.pan)?;
-        // Each frame its own noise, the same for the same pan angle in every run.
-        let seed = (self.pan.radians() / self.step.radians()).round() as i64 as u64;
-        let frame = self.scene.render(
-            &camera,
-            &RenderOptions {
-                seed: seed ^ self.options.seed,
-                ..self.options
-            },
-        )?;
-        self.captures += 1;
-        Ok(Frame {
-            image: frame.rgb8(),
-            mask: Some(frame.mask),
-        })
+        self.camera.capture()
+    }
+
+    fn known_volume(&self) -> Option<Aabb> {
+        self.camera.known_volume()
     }
 }

@@ -35,6 +35,8 @@ enum Command {
     /// every uncaptured pan angle on a fine grid is rendered and compared with the truth
     /// inside the object mask (masked PSNR and SSIM, mean and worst arc).
     Eval(EvalArgs),
+    /// Drive a PTU-46 pan-tilt unit on a serial port, or emulate one on a pseudo-terminal.
+    Ptu(PtuArgs),
     /// Synthetic scenes.
     Scene {
         #[command(subcommand)]
@@ -45,8 +47,19 @@ enum Command {
 #[derive(clap::Args)]
 struct CaptureArgs {
     /// The rig: sim:SCENE (mirror, head, chair or lambertian) is the built-in synthetic rig.
-    #[arg(long, default_value = "sim:mirror")]
+    #[arg(long, default_value = "sim:mirror", conflicts_with = "turntable")]
     rig: String,
+    /// A real turntable instead of the synthetic rig's: ptu:PATH is a PTU-46 on serial
+    /// device PATH (needs --camera).
+    #[arg(long, value_name = "ptu:PATH", requires = "camera")]
+    turntable: Option<String>,
+    /// The camera that looks at the turntable: sim:SCENE renders a synthetic scene at the
+    /// angle the turntable reports.
+    #[arg(long, value_name = "sim:SCENE", requires = "turntable")]
+    camera: Option<String>,
+    /// The turntable's serial speed.
+    #[arg(long, default_value_t = 9600)]
+    baud: u32,
     /// Views captured uniformly over the pan range first.
     #[arg(long, default_value_t = 12)]
     initial: usize,
@@ -86,6 +99,63 @@ struct CaptureArgs {
     /// Print a machine-readable summary on standard output.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(clap::Args)]
+struct PtuArgs {
+    /// The unit's serial device (for example /dev/ttyUSB0, or the path `aibr ptu emulate`
+    /// prints).
+    #[arg(long, global = true, value_name = "PATH")]
+    port: Option<String>,
+    /// The serial speed (the PTU-46 default is 9600).
+    #[arg(long, global = true, default_value_t = 9600)]
+    baud: u32,
+    /// Print machine-readable output (info, move, home).
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    action: PtuAction,
+}
+
+#[derive(Subcommand)]
+enum PtuAction {
+    /// The unit's firmware, resolution, limits, speeds and pan position.
+    Info,
+    /// Turn the pan axis to an angle (degrees) and wait until it is there.
+    Move {
+        /// The angle, degrees (positive is the unit's positive direction).
+        #[arg(allow_hyphen_values = true)]
+        degrees: f64,
+        /// Turn by the angle from where the axis is, instead of to it.
+        #[arg(long)]
+        relative: bool,
+    },
+    /// Reset (home) the pan axis: it finds its limits and returns to 0. Tilt is left alone,
+    /// so nothing on the turntable is tipped.
+    Home,
+    /// Stop both axes at once.
+    Halt,
+    /// Enforce the soft limits (on) or allow the full range to the hard stops (off).
+    Limits {
+        /// on or off.
+        #[arg(value_enum)]
+        state: OnOff,
+    },
+    /// Emulate a PTU-46 on a new pseudo-terminal: prints the device path, then serves until
+    /// stopped (Ctrl-C).
+    Emulate {
+        /// Move this many times faster than a real unit (speeds, acceleration, homing).
+        #[arg(long, default_value_t = 1.0)]
+        speedup: f64,
+    },
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum OnOff {
+    /// Enabled.
+    On,
+    /// Disabled.
+    Off,
 }
 
 #[derive(clap::Args)]
@@ -210,8 +280,139 @@ fn run(cli: Cli) -> Result<()> {
         Command::Reconstruct(a) => reconstruct(a),
         Command::Render(a) => render(a),
         Command::Eval(a) => eval(a),
+        Command::Ptu(a) => ptu(a),
         Command::Scene { command } => scene(command),
     }
+}
+
+fn open_ptu(port: &str, baud: u32) -> Result<aibr::ptu::SerialPtu> {
+    aibr::ptu::SerialPtu::open(port, baud, aibr::ptu::PtuOptions::default())
+        .with_context(|| format!("connecting to the PTU on {port}"))
+}
+
+fn ptu(a: PtuArgs) -> Result<()> {
+    use aibr::ptu::{Axis, Radians};
+    if let PtuAction::Emulate { speedup } = a.action {
+        if !(speedup > 0.0 && speedup.is_finite()) {
+            bail!("--speedup {speedup}: must be a positive number");
+        }
+        let unit = aibr::ptu::Emulator::new(aibr::ptu::EmulatorConfig::default().faster(speedup));
+        let mut server = aibr::ptu::PtyServer::open(unit)?;
+        println!("{}", server.path());
+        eprintln!(
+            "emulating a PTU-46 on {} (Ctrl-C to stop); try: aibr ptu --port {} info",
+            server.path(),
+            server.path()
+        );
+        std::io::Write::flush(&mut std::io::stdout())?;
+        server.serve(&std::sync::atomic::AtomicBool::new(false))?;
+        return Ok(());
+    }
+    let Some(port) = a.port.as_deref() else {
+        bail!("--port PATH is required (the unit's serial device)");
+    };
+    let mut unit = open_ptu(port, a.baud)?;
+    let report = |unit: &mut aibr::ptu::SerialPtu, json: bool| -> Result<()> {
+        let steps = unit.position_steps(Axis::Pan)?;
+        let deg = unit.info().pan.radians(steps).degrees();
+        if json {
+            println!(
+                "{}",
+                serde_json::to_string_pretty(
+                    &serde_json::json!({"pan_deg": deg, "pan_steps": steps})
+                )?
+            );
+        } else {
+            println!("pan at {deg:.4} deg ({steps} steps)");
+        }
+        Ok(())
+    };
+    match a.action {
+        PtuAction::Info => {
+            let pos = unit.position_steps(Axis::Pan)?;
+            let info = unit.info().clone();
+            let axis = |x: &aibr::ptu::AxisInfo| {
+                serde_json::json!({
+                    "resolution_arcsec": x.resolution_arcsec,
+                    "min_steps": x.min, "max_steps": x.max,
+                    "min_deg": x.radians(x.min).degrees(), "max_deg": x.radians(x.max).degrees(),
+                    "speed_steps_per_s": x.speed, "base_speed_steps_per_s": x.base_speed,
+                    "lower_speed_steps_per_s": x.lower_speed, "upper_speed_steps_per_s": x.upper_speed,
+                    "acceleration_steps_per_s2": x.acceleration,
+                })
+            };
+            if a.json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&serde_json::json!({
+                        "port": port,
+                        "firmware": info.firmware,
+                        "limits_enabled": info.limits_enabled,
+                        "echo_was_on": info.echo_was_on,
+                        "pan_steps": pos,
+                        "pan_deg": info.pan.radians(pos).degrees(),
+                        "pan": axis(&info.pan),
+                        "tilt": axis(&info.tilt),
+                    }))?
+                );
+            } else {
+                let p = &info.pan;
+                println!("firmware:   {}", info.firmware);
+                println!(
+                    "pan:        {:.4} deg ({pos} steps) of {:.2} .. {:.2} deg; {} arc seconds a step",
+                    p.radians(pos).degrees(),
+                    p.radians(p.min).degrees(),
+                    p.radians(p.max).degrees(),
+                    p.resolution_arcsec
+                );
+                println!(
+                    "speed:      {} steps/s (bounds {} .. {}), acceleration {} steps/s^2",
+                    p.speed, p.lower_speed, p.upper_speed, p.acceleration
+                );
+                println!(
+                    "limits:     {}",
+                    if info.limits_enabled {
+                        "enforced"
+                    } else {
+                        "off (hard stops only)"
+                    }
+                );
+            }
+        }
+        PtuAction::Move { degrees, relative } => {
+            if !degrees.is_finite() {
+                bail!("move {degrees}: not an angle");
+            }
+            let angle = Radians::from_degrees(degrees);
+            if relative {
+                unit.move_by(Axis::Pan, angle)?;
+            } else {
+                unit.move_to(Axis::Pan, angle)?;
+            }
+            report(&mut unit, a.json)?;
+        }
+        PtuAction::Home => {
+            unit.reset(Some(Axis::Pan))?;
+            report(&mut unit, a.json)?;
+        }
+        PtuAction::Halt => {
+            unit.halt(None)?;
+            report(&mut unit, a.json)?;
+        }
+        PtuAction::Limits { state } => {
+            let on = unit.set_limits(state == OnOff::On)?;
+            println!(
+                "limits {}",
+                if on {
+                    "enforced"
+                } else {
+                    "off (hard stops only)"
+                }
+            );
+        }
+        PtuAction::Emulate { .. } => {}
+    }
+    Ok(())
 }
 
 fn png(path: &Path, img: &impl PngEncodable) -> Result<()> {
@@ -241,8 +442,34 @@ fn exr(path: &Path, depth: &aibr::voxel::DepthMap) -> Result<()> {
 }
 
 fn capture(a: CaptureArgs) -> Result<()> {
-    let mut rig = SimRig::from_spec(&a.rig)?;
-    let calibration = rig.calibration()?;
+    match (&a.turntable, &a.camera) {
+        (Some(t), Some(c)) => {
+            let Some(port) = t.strip_prefix("ptu:") else {
+                bail!("--turntable {t:?}: expected ptu:PATH (a PTU-46 on serial device PATH)");
+            };
+            let turntable = aibr::PtuTurntable::new(open_ptu(port, a.baud)?)?;
+            let camera = aibr::SceneCamera::from_spec(c, aibr::Turntable::step(&turntable))
+                .with_context(|| format!("--camera {c:?}: expected sim:SCENE"))?;
+            let calibration = camera.calibration()?;
+            let spec = format!("{t}+{c}");
+            let mut rig = aibr::Rig { turntable, camera };
+            capture_on(a, &spec, &mut rig, &calibration)
+        }
+        _ => {
+            let mut rig = SimRig::from_spec(&a.rig)?;
+            let calibration = rig.calibration()?;
+            let spec = a.rig.clone();
+            capture_on(a, &spec, &mut rig, &calibration)
+        }
+    }
+}
+
+fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
+    a: CaptureArgs,
+    spec: &str,
+    rig: &mut R,
+    calibration: &aibr::Calibration,
+) -> Result<()> {
     let params = CaptureParams {
         strategy: match a.strategy {
             StrategyArg::Active => Strategy::Active,
@@ -257,7 +484,7 @@ fn capture(a: CaptureArgs) -> Result<()> {
     let mut session = if a.resume {
         let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
         let p = &s.file().parameters;
-        if s.file().rig != a.rig
+        if s.file().rig != spec
             || p.strategy != params.strategy.name()
             || p.initial != params.initial
             || p.max != params.max
@@ -266,7 +493,7 @@ fn capture(a: CaptureArgs) -> Result<()> {
             || p.consistent_below != params.consistent_below
         {
             bail!(
-                "{} was captured with --rig {} --strategy {} --initial {} --max {} --refine-every {} --grid {} --consistent-below {}: resume with the same options",
+                "{} was captured on rig {} with --strategy {} --initial {} --max {} --refine-every {} --grid {} --consistent-below {}: resume with the same options",
                 a.out.display(),
                 s.file().rig,
                 p.strategy,
@@ -281,9 +508,9 @@ fn capture(a: CaptureArgs) -> Result<()> {
     } else {
         aibr::new_session_with_volume(
             &a.out,
-            &a.rig,
-            &rig,
-            &calibration,
+            spec,
+            rig,
+            calibration,
             &params,
             volume_source(&a.volume)?,
         )?
@@ -293,7 +520,7 @@ fn capture(a: CaptureArgs) -> Result<()> {
         "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} views {msg}",
     )?);
     bar.set_position(session.file().views.len() as u64);
-    let report = aibr::capture(&mut rig, &mut session, &params, &mut |p| match p {
+    let report = aibr::capture(rig, &mut session, &params, &mut |p| match p {
         Progress::Captured { count, pan, .. } => {
             bar.set_position(count as u64);
             bar.set_message(format!("captured at {:.2} deg", pan.degrees()));
@@ -319,7 +546,7 @@ fn capture(a: CaptureArgs) -> Result<()> {
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "session": a.out,
-                "rig": a.rig,
+                "rig": spec,
                 "strategy": params.strategy.name(),
                 "resumed_from": report.resumed_from,
                 "stopped_early": report.stopped_early,

@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 use crate::emulator::profile;
 use crate::error::{Error, Result};
 use crate::protocol::{
-    Axis, AxisParam, Bound, Command, ControlMode, DeviceError, Event, Execution, Feedback, ReplyParser,
-    reply_integer, reply_limits_enabled, reply_number,
+    Axis, AxisParam, Bound, Command, ControlMode, DeviceError, Event, Execution, Feedback,
+    ReplyParser, reply_integer, reply_limits_enabled, reply_number,
 };
 
 /// An angle in radians (the driver's unit for angles; steps stay inside this crate).
@@ -519,7 +519,9 @@ impl<P: Read + Write> Ptu<P> {
     /// bare `*`: a reply of the wrong kind is a late one and is retried like a lost reply.
     pub fn command(&mut self, cmd: Command, timeout: Duration) -> Result<String> {
         let query = cmd.is_query();
-        self.transact(cmd, timeout, |t| (query == !t.is_empty()).then(|| t.to_owned()))
+        self.transact(cmd, timeout, |t| {
+            (query == !t.is_empty()).then(|| t.to_owned())
+        })
     }
 
     fn set(&mut self, axis: Axis, param: AxisParam, value: i32) -> Result<()> {

@@ -15,8 +15,8 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
-use crate::protocol::{AxisParam, Bound, Command, ControlMode, DeviceError, Execution, Feedback};
 use crate::protocol::Axis;
+use crate::protocol::{AxisParam, Bound, Command, ControlMode, DeviceError, Execution, Feedback};
 
 /// The factory settings of one axis.
 #[derive(Debug, Clone, PartialEq)]
@@ -224,7 +224,11 @@ impl Motion {
                 stop,
             } => {
                 let p = from + velocity * now.saturating_sub(start).as_secs_f64();
-                if velocity >= 0.0 { p.min(stop) } else { p.max(stop) }
+                if velocity >= 0.0 {
+                    p.min(stop)
+                } else {
+                    p.max(stop)
+                }
             }
         }
     }
@@ -330,7 +334,8 @@ impl Emulator {
 
     /// Whether `axis` is moving now.
     pub fn moving(&self, axis: Axis) -> bool {
-        !matches!(self.motion[index(axis)], Motion::Still(_)) && self.motion[index(axis)].end() > self.now
+        !matches!(self.motion[index(axis)], Motion::Still(_))
+            && self.motion[index(axis)].end() > self.now
     }
 
     /// The time up to which the emulator has run.
@@ -604,23 +609,38 @@ impl Emulator {
                     (ControlMode::Velocity, _) => 0,
                     _ => s.speed[i],
                 };
-                (format!("Target {n} speed is {v} positions/sec"), v.to_string())
+                (
+                    format!("Target {n} speed is {v} positions/sec"),
+                    v.to_string(),
+                )
             }
             AxisParam::Acceleration => {
                 let v = s.acceleration[i];
-                (format!("{n} acceleration is {v} positions/sec^2"), v.to_string())
+                (
+                    format!("{n} acceleration is {v} positions/sec^2"),
+                    v.to_string(),
+                )
             }
             AxisParam::BaseSpeed => {
                 let v = s.base_speed[i];
-                (format!("Current {n} base speed is {v} positions/sec"), v.to_string())
+                (
+                    format!("Current {n} base speed is {v} positions/sec"),
+                    v.to_string(),
+                )
             }
             AxisParam::UpperSpeed => {
                 let v = s.upper_speed[i];
-                (format!("Maximum {n} speed is {v} positions/sec"), v.to_string())
+                (
+                    format!("Maximum {n} speed is {v} positions/sec"),
+                    v.to_string(),
+                )
             }
             AxisParam::LowerSpeed => {
                 let v = s.lower_speed[i];
-                (format!("Minimum {n} speed is {v} positions/sec"), v.to_string())
+                (
+                    format!("Minimum {n} speed is {v} positions/sec"),
+                    v.to_string(),
+                )
             }
             AxisParam::MinPosition => {
                 let v = self.axis_cfg(axis).soft_min;
@@ -732,7 +752,12 @@ impl Emulator {
                         self.start_move(a, t);
                     }
                 }
-                let end = self.motion.iter().map(Motion::end).max().unwrap_or_default();
+                let end = self
+                    .motion
+                    .iter()
+                    .map(Motion::end)
+                    .max()
+                    .unwrap_or_default();
                 if end > self.now {
                     self.block = Some(Block::Await(end));
                 } else {
@@ -792,7 +817,11 @@ impl Emulator {
                 self.reply_ok("");
             }
             Command::QueryEcho => {
-                let text = if self.settings.echo { "Echoing ON" } else { "Echoing OFF" };
+                let text = if self.settings.echo {
+                    "Echoing ON"
+                } else {
+                    "Echoing OFF"
+                };
                 self.reply_ok(text);
             }
             Command::SetEcho(on) => {
@@ -859,26 +888,45 @@ mod tests {
         );
         let ev = say(&mut e, "ED A ", 0);
         // The echo of "ED " and its reply; echo is off for "A ", which waits for the move.
-        assert_eq!(ev, vec![Event::Other(b"ED ".to_vec()), Event::Ok(String::new())]);
+        assert_eq!(
+            ev,
+            vec![Event::Other(b"ED ".to_vec()), Event::Ok(String::new())]
+        );
         assert_eq!(e.take_output(), b"");
         // The move of 500 steps at 1000 steps/s takes about half a second.
         e.advance(Duration::from_millis(2000));
-        assert_eq!(parse_events(&e.take_output()).0, vec![Event::Ok(String::new())]);
-        assert_eq!(say(&mut e, "PO ", 2000), vec![Event::Ok("Current Pan position is -500".into())]);
+        assert_eq!(
+            parse_events(&e.take_output()).0,
+            vec![Event::Ok(String::new())]
+        );
+        assert_eq!(
+            say(&mut e, "PO ", 2000),
+            vec![Event::Ok("Current Pan position is -500".into())]
+        );
         assert_eq!(
             say(&mut e, "PP3200 ", 2000),
-            vec![Event::Error(DeviceError::PositionLimit { axis: Axis::Pan, bound: Bound::Max, limit: 3090 })]
+            vec![Event::Error(DeviceError::PositionLimit {
+                axis: Axis::Pan,
+                bound: Bound::Max,
+                limit: 3090
+            })]
         );
         assert_eq!(
             say(&mut e, "PS3300 PL20 FT PR ", 2000),
             vec![
-                Event::Error(DeviceError::SpeedTooHigh { axis: Axis::Pan, max: 2902 }),
+                Event::Error(DeviceError::SpeedTooHigh {
+                    axis: Axis::Pan,
+                    max: 2902
+                }),
                 Event::Error(DeviceError::SpeedTooLow { min: 31 }),
                 Event::Ok(String::new()),
                 Event::Ok("185.1428".into()),
             ]
         );
-        assert_eq!(say(&mut e, "XYZ ", 2000), vec![Event::Error(DeviceError::IllegalCommand)]);
+        assert_eq!(
+            say(&mut e, "XYZ ", 2000),
+            vec![Event::Error(DeviceError::IllegalCommand)]
+        );
     }
 
     #[test]
@@ -893,7 +941,10 @@ mod tests {
         assert!(0 < p && p < 1000, "{p}");
         let end = e.next_deadline().unwrap();
         e.advance(end);
-        assert_eq!(parse_events(&e.take_output()).0, vec![Event::Ok(String::new()), Event::Ok("1000".into())]);
+        assert_eq!(
+            parse_events(&e.take_output()).0,
+            vec![Event::Ok(String::new()), Event::Ok("1000".into())]
+        );
         assert!(!e.moving(Axis::Pan));
     }
 
@@ -926,13 +977,20 @@ mod tests {
         e.advance(Duration::from_millis(500));
         assert_eq!(e.position(Axis::Pan), -1000);
         e.advance(Duration::from_secs(5));
-        assert_eq!(parse_events(&e.take_output()).0, vec![Event::Limit(Axis::Pan)]);
+        assert_eq!(
+            parse_events(&e.take_output()).0,
+            vec![Event::Limit(Axis::Pan)]
+        );
         assert_eq!(e.position(Axis::Pan), -3090);
     }
 
     #[test]
     fn trapezoid_is_continuous_and_ends_at_target() {
-        for (d, base, speed, accel) in [(1000.0, 100.0, 1000.0, 2000.0), (10.0, 0.0, 1000.0, 50.0), (500.0, 2000.0, 1000.0, 10.0)] {
+        for (d, base, speed, accel) in [
+            (1000.0, 100.0, 1000.0, 2000.0),
+            (10.0, 0.0, 1000.0, 50.0),
+            (500.0, 2000.0, 1000.0, 10.0),
+        ] {
             let total = profile(d, base, speed, accel).3;
             let mut last = 0.0;
             for k in 0..=1000 {

@@ -488,7 +488,8 @@ impl ReplyParser {
             }
             b'!' => {
                 let second = *self.buf.get(1)?;
-                if let Some(axis) = Axis::from_letter(second).filter(|_| second.is_ascii_uppercase())
+                if let Some(axis) =
+                    Axis::from_letter(second).filter(|_| second.is_ascii_uppercase())
                 {
                     self.buf.drain(..2);
                     return Some(Event::Limit(axis));
@@ -509,6 +510,7 @@ impl ReplyParser {
                 let end = self
                     .buf
                     .iter()
+                    .take(MAX_LINE)
                     .position(|&b| b == b'*' || b == b'!' || is_eol(b));
                 let end = match end {
                     Some(e) => e,
@@ -524,7 +526,9 @@ impl ReplyParser {
     /// The index of the line end of the reply at the front, if it has arrived; a reply that
     /// runs past [`MAX_LINE`] is cut there.
     fn line_end(&self) -> Option<usize> {
-        match self.buf.iter().position(|&b| is_eol(b)) {
+        // Only the first MAX_LINE bytes count, so that how the bytes were split as they
+        // arrived never changes the events.
+        match self.buf.iter().take(MAX_LINE).position(|&b| is_eol(b)) {
             Some(e) => Some(e),
             None if self.buf.len() >= MAX_LINE => Some(MAX_LINE),
             None => None,
@@ -594,12 +598,24 @@ mod tests {
 
     #[test]
     fn encodes_like_the_manual() {
-        assert_eq!(Command::Set(Axis::Pan, AxisParam::Position, -500).encode(), b"PP-500 ");
-        assert_eq!(Command::Query(Axis::Tilt, AxisParam::Resolution).text(), "TR");
+        assert_eq!(
+            Command::Set(Axis::Pan, AxisParam::Position, -500).encode(),
+            b"PP-500 "
+        );
+        assert_eq!(
+            Command::Query(Axis::Tilt, AxisParam::Resolution).text(),
+            "TR"
+        );
         assert_eq!(Command::Reset(Some(Axis::Pan)).text(), "RP");
         assert_eq!(Command::SetLimits(false).text(), "LD");
-        assert_eq!(Command::parse(b"po1500"), Some(Command::Set(Axis::Pan, AxisParam::Offset, 1500)));
-        assert_eq!(Command::parse(b"pp"), Some(Command::Query(Axis::Pan, AxisParam::Position)));
+        assert_eq!(
+            Command::parse(b"po1500"),
+            Some(Command::Set(Axis::Pan, AxisParam::Offset, 1500))
+        );
+        assert_eq!(
+            Command::parse(b"pp"),
+            Some(Command::Query(Axis::Pan, AxisParam::Position))
+        );
         assert_eq!(Command::parse(b"PPx"), None);
         assert_eq!(Command::parse(b"Q"), None);
         assert_eq!(Command::parse(b""), None);
@@ -639,13 +655,19 @@ mod tests {
         );
         assert_eq!(
             DeviceError::from_message("Pan speed cannot exceed 2902 positions/sec"),
-            DeviceError::SpeedTooHigh { axis: Axis::Pan, max: 2902 }
+            DeviceError::SpeedTooHigh {
+                axis: Axis::Pan,
+                max: 2902
+            }
         );
         assert_eq!(
             DeviceError::from_message("Motor speed cannot be less than 31 pos/sec"),
             DeviceError::SpeedTooLow { min: 31 }
         );
-        assert_eq!(DeviceError::from_message("Illegal Command"), DeviceError::IllegalCommand);
+        assert_eq!(
+            DeviceError::from_message("Illegal Command"),
+            DeviceError::IllegalCommand
+        );
     }
 
     #[test]
@@ -663,7 +685,10 @@ mod tests {
 
     #[test]
     fn reads_values() {
-        assert_eq!(reply_integer("Current Pan position is -500", Feedback::Verbose), Some(-500));
+        assert_eq!(
+            reply_integer("Current Pan position is -500", Feedback::Verbose),
+            Some(-500)
+        );
         assert_eq!(reply_integer("-500", Feedback::Terse), Some(-500));
         assert_eq!(reply_integer("-5a0", Feedback::Terse), None);
         assert_eq!(
@@ -671,7 +696,13 @@ mod tests {
             Some(185.1428)
         );
         assert_eq!(reply_number("46.2857", Feedback::Terse), Some(46.2857));
-        assert_eq!(reply_limits_enabled("Limit bounds are ENABLED (soft limits enabled)"), Some(true));
-        assert_eq!(reply_limits_enabled("Limit bounds are DISABLED (hard limits only: use care)"), Some(false));
+        assert_eq!(
+            reply_limits_enabled("Limit bounds are ENABLED (soft limits enabled)"),
+            Some(true)
+        );
+        assert_eq!(
+            reply_limits_enabled("Limit bounds are DISABLED (hard limits only: use care)"),
+            Some(false)
+        );
     }
 }

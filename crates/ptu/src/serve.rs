@@ -263,10 +263,15 @@ impl Read for EmulatedPort {
                 s.next_wake()
             };
             if now >= deadline {
-                return Err(io::Error::new(io::ErrorKind::TimedOut, "no byte before the timeout"));
+                return Err(io::Error::new(
+                    io::ErrorKind::TimedOut,
+                    "no byte before the timeout",
+                ));
             }
             let until = wake.map_or(deadline, |w| w.clamp(now, deadline));
-            std::thread::sleep((until - now).clamp(Duration::from_micros(200), Duration::from_millis(5)));
+            std::thread::sleep(
+                (until - now).clamp(Duration::from_micros(200), Duration::from_millis(5)),
+            );
         }
     }
 }
@@ -276,7 +281,10 @@ impl Write for EmulatedPort {
         let now = self.now();
         let mut s = self.lock();
         if s.dead {
-            return Err(io::Error::new(io::ErrorKind::BrokenPipe, "the line is dead"));
+            return Err(io::Error::new(
+                io::ErrorKind::BrokenPipe,
+                "the line is dead",
+            ));
         }
         let mut last = s.outgoing.back().map_or(now, |&(t, _)| t.max(now));
         for &b in buf {
@@ -362,7 +370,13 @@ impl PtyServer {
                     let now = self.start.elapsed();
                     self.emulator.receive(&buf[..n], now);
                 }
-                Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted) => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::TimedOut
+                            | io::ErrorKind::WouldBlock
+                            | io::ErrorKind::Interrupted
+                    ) => {}
                 Err(e) => return Err(e.into()),
             }
             self.emulator.advance(self.start.elapsed());

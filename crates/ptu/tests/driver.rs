@@ -6,8 +6,8 @@ use std::time::{Duration, Instant};
 
 use aibr_ptu::protocol::Bound;
 use aibr_ptu::{
-    Axis, DeviceError, EmulatedPort, Emulator, EmulatorConfig, Error, Ptu, PtuOptions,
-    PtyServer, Radians, SerialPtu,
+    Axis, DeviceError, EmulatedPort, Emulator, EmulatorConfig, Error, Ptu, PtuOptions, PtyServer,
+    Radians, SerialPtu,
 };
 
 fn fast_options() -> PtuOptions {
@@ -42,7 +42,11 @@ fn connect_reads_the_unit() {
     // The emulated unit is 50 times faster than a PTU-46 (31 steps/s at the least).
     assert_eq!(info.pan.lower_speed, 31 * 50);
     assert!(info.limits_enabled);
-    assert!(info.firmware.contains("Pan-Tilt Controller"), "{}", info.firmware);
+    assert!(
+        info.firmware.contains("Pan-Tilt Controller"),
+        "{}",
+        info.firmware
+    );
     assert_eq!(ptu.stats().retries, 0);
 }
 
@@ -67,7 +71,9 @@ fn moves_absolute_and_relative() {
     let (mut ptu, unit) = connect();
     assert_eq!(ptu.move_to_steps(Axis::Pan, 1500).unwrap(), 1500);
     assert_eq!(unit.emulator(|e| e.position(Axis::Pan)), 1500);
-    let r = ptu.move_by(Axis::Pan, Radians::from_degrees(-10.0)).unwrap();
+    let r = ptu
+        .move_by(Axis::Pan, Radians::from_degrees(-10.0))
+        .unwrap();
     let expected = 1500 - (10.0 * 3600.0 / 185.1428_f64).round() as i32;
     assert_eq!(unit.emulator(|e| e.position(Axis::Pan)), expected);
     assert!((r.0 - ptu.info().pan.radians(expected).0).abs() < 1e-12);
@@ -81,19 +87,34 @@ fn device_errors_are_typed() {
     let (mut ptu, _) = connect();
     match ptu.move_to_steps(Axis::Pan, 3200) {
         Err(Error::Device {
-            error: DeviceError::PositionLimit { axis: Axis::Pan, bound: Bound::Max, limit: 3090 },
+            error:
+                DeviceError::PositionLimit {
+                    axis: Axis::Pan,
+                    bound: Bound::Max,
+                    limit: 3090,
+                },
             ..
         }) => {}
         other => panic!("{other:?}"),
     }
     match ptu.set_speed(Axis::Pan, 1_000_000) {
-        Err(Error::Device { error: DeviceError::SpeedTooHigh { axis: Axis::Pan, max }, .. }) => {
+        Err(Error::Device {
+            error:
+                DeviceError::SpeedTooHigh {
+                    axis: Axis::Pan,
+                    max,
+                },
+            ..
+        }) => {
             assert_eq!(max, ptu.info().pan.upper_speed)
         }
         other => panic!("{other:?}"),
     }
     match ptu.set_speed(Axis::Pan, 10) {
-        Err(Error::Device { error: DeviceError::SpeedTooLow { min: 1550 }, .. }) => {}
+        Err(Error::Device {
+            error: DeviceError::SpeedTooLow { min: 1550 },
+            ..
+        }) => {}
         other => panic!("{other:?}"),
     }
     // The error left the driver in step.
@@ -106,7 +127,12 @@ fn limits_off_reach_the_hard_stop() {
     assert!(!ptu.set_limits(false).unwrap());
     assert_eq!(ptu.move_to_steps(Axis::Pan, 3200).unwrap(), 3200);
     match ptu.move_to_steps(Axis::Pan, 5000) {
-        Err(Error::MoveIncomplete { axis: Axis::Pan, target: 5000, reached, limit_hit: true }) => {
+        Err(Error::MoveIncomplete {
+            axis: Axis::Pan,
+            target: 5000,
+            reached,
+            limit_hit: true,
+        }) => {
             assert_eq!(reached, 3250);
             assert_eq!(unit.emulator(|e| e.position(Axis::Pan)), 3250);
         }
@@ -123,7 +149,10 @@ fn reset_reports_its_limit_hits() {
     assert_eq!(hits, vec![Axis::Tilt, Axis::Tilt, Axis::Pan, Axis::Pan]);
     assert_eq!(unit.emulator(|e| e.position(Axis::Pan)), 0);
     assert_eq!(ptu.position_steps(Axis::Pan).unwrap(), 0);
-    assert_eq!(ptu.reset(Some(Axis::Pan)).unwrap(), vec![Axis::Pan, Axis::Pan]);
+    assert_eq!(
+        ptu.reset(Some(Axis::Pan)).unwrap(),
+        vec![Axis::Pan, Axis::Pan]
+    );
 }
 
 #[test]
@@ -131,8 +160,11 @@ fn halt_stops_the_axis() {
     let (mut ptu, unit) = connect();
     let slowest = ptu.info().pan.lower_speed;
     ptu.set_speed(Axis::Pan, slowest).unwrap();
-    ptu.command(aibr_ptu::Command::Set(Axis::Pan, aibr_ptu::AxisParam::Position, 3000), Duration::from_millis(300))
-        .unwrap();
+    ptu.command(
+        aibr_ptu::Command::Set(Axis::Pan, aibr_ptu::AxisParam::Position, 3000),
+        Duration::from_millis(300),
+    )
+    .unwrap();
     std::thread::sleep(Duration::from_millis(50));
     ptu.halt(Some(Axis::Pan)).unwrap();
     let stopped = unit.emulator(|e| e.position(Axis::Pan));
@@ -160,7 +192,10 @@ fn a_dead_line_is_an_error_not_a_hang() {
     let port = EmulatedPort::with_faults(
         unit(),
         Duration::from_millis(5),
-        aibr_ptu::Faults { disconnect_after: Some(0), ..Default::default() },
+        aibr_ptu::Faults {
+            disconnect_after: Some(0),
+            ..Default::default()
+        },
     );
     let t = Instant::now();
     match Ptu::connect(port, fast_options()) {
@@ -188,11 +223,21 @@ fn a_silent_unit_times_out() {
             Ok(())
         }
     }
-    let options = PtuOptions { retries: 1, ..fast_options() };
+    let options = PtuOptions {
+        retries: 1,
+        ..fast_options()
+    };
     let t = Instant::now();
     let r = Ptu::connect(Silent, options);
-    assert!(matches!(r, Err(Error::Timeout { .. }) | Err(Error::OutOfSync(_))), "{r:?}");
-    assert!(t.elapsed() <= options.command_bound(options.reply_timeout), "{:?}", t.elapsed());
+    assert!(
+        matches!(r, Err(Error::Timeout { .. }) | Err(Error::OutOfSync(_))),
+        "{r:?}"
+    );
+    assert!(
+        t.elapsed() <= options.command_bound(options.reply_timeout),
+        "{:?}",
+        t.elapsed()
+    );
 }
 
 #[test]
@@ -204,7 +249,10 @@ fn over_a_pseudo_terminal() {
     let s = stop.clone();
     let serving = std::thread::spawn(move || server.serve(&s));
 
-    let options = PtuOptions { settle_gap: Duration::from_millis(20), ..fast_options() };
+    let options = PtuOptions {
+        settle_gap: Duration::from_millis(20),
+        ..fast_options()
+    };
     let mut ptu = SerialPtu::open(&path, 9600, options).unwrap();
     assert!(ptu.info().echo_was_on);
     assert_eq!(ptu.info().pan.resolution_arcsec, 185.1428);
@@ -212,9 +260,19 @@ fn over_a_pseudo_terminal() {
     assert!((r.degrees() - 45.0).abs() < 0.03);
     assert!(matches!(
         ptu.move_to_steps(Axis::Pan, -4000),
-        Err(Error::Device { error: DeviceError::PositionLimit { bound: Bound::Min, limit: -3090, .. }, .. })
+        Err(Error::Device {
+            error: DeviceError::PositionLimit {
+                bound: Bound::Min,
+                limit: -3090,
+                ..
+            },
+            ..
+        })
     ));
-    assert_eq!(ptu.reset(Some(Axis::Pan)).unwrap(), vec![Axis::Pan, Axis::Pan]);
+    assert_eq!(
+        ptu.reset(Some(Axis::Pan)).unwrap(),
+        vec![Axis::Pan, Axis::Pan]
+    );
     assert_eq!(ptu.position_steps(Axis::Pan).unwrap(), 0);
     drop(ptu);
 

@@ -76,7 +76,10 @@ fn faults_for(seed: u64) -> Faults {
 
 fn run(seed: u64) -> Tally {
     let o = options();
-    let mut t = Tally { runs: 1, ..Tally::default() };
+    let mut t = Tally {
+        runs: 1,
+        ..Tally::default()
+    };
     let port = EmulatedPort::with_faults(
         Emulator::new(EmulatorConfig::default().faster(50.0)),
         Duration::from_millis(5),
@@ -188,7 +191,12 @@ fn a_light_fault_rate_is_absorbed_completely() {
         let port = EmulatedPort::with_faults(
             Emulator::new(EmulatorConfig::default().faster(50.0)),
             Duration::from_millis(5),
-            Faults { seed, drop: 0.001, corrupt: 0.001, ..Faults::default() },
+            Faults {
+                seed,
+                drop: 0.001,
+                corrupt: 0.001,
+                ..Faults::default()
+            },
         );
         let unit = port.clone();
         let mut ptu = Ptu::connect(port, options()).unwrap();
@@ -208,7 +216,10 @@ fn soak() {
         .unwrap_or(500);
     let start = Instant::now();
     let t = campaign(runs, 10_000);
-    println!("{runs} runs in {:.1} s\n{t:#?}", start.elapsed().as_secs_f64());
+    println!(
+        "{runs} runs in {:.1} s\n{t:#?}",
+        start.elapsed().as_secs_f64()
+    );
     assert_eq!(t.wrong_positions, 0);
     assert_eq!(t.over_time, 0);
 }

@@ -19,7 +19,8 @@ fn command() -> impl Strategy<Value = Command> {
         (axis(), param, -20_000i32..20_000).prop_map(|(a, p, v)| Command::Set(a, p, v)),
         (axis(), any::<i32>()).prop_map(|(a, v)| Command::Set(a, AxisParam::Position, v)),
         Just(Command::Await),
-        prop_oneof![Just(Execution::Immediate), Just(Execution::Slaved)].prop_map(Command::SetExecution),
+        prop_oneof![Just(Execution::Immediate), Just(Execution::Slaved)]
+            .prop_map(Command::SetExecution),
         prop::option::of(axis()).prop_map(Command::Halt),
         Just(Command::QueryLimits),
         any::<bool>().prop_map(Command::SetLimits),
@@ -34,7 +35,8 @@ fn command() -> impl Strategy<Value = Command> {
         Just(Command::RestoreDefaults),
         Just(Command::FactoryDefaults),
         Just(Command::QueryControl),
-        prop_oneof![Just(ControlMode::Independent), Just(ControlMode::Velocity)].prop_map(Command::SetControl),
+        prop_oneof![Just(ControlMode::Independent), Just(ControlMode::Velocity)]
+            .prop_map(Command::SetControl),
     ]
 }
 
@@ -49,6 +51,23 @@ proptest! {
             while p.next_event().is_some() {}
             prop_assert!(p.pending().len() < aibr_ptu::protocol::MAX_LINE + 2);
         }
+    }
+
+    #[test]
+    fn splitting_never_changes_the_replies(bytes in prop::collection::vec(prop_oneof![Just(b'*'), Just(b'!'), Just(b'P'), Just(b'\r'), Just(b' '), any::<u8>()], 0..700), cut in any::<prop::sample::Index>()) {
+        let events = |chunks: &[&[u8]]| {
+            let mut p = ReplyParser::new();
+            let mut out = Vec::new();
+            for c in chunks {
+                p.push(c);
+                while let Some(e) = p.next_event() {
+                    if !matches!(e, Event::Other(_)) { out.push(e); }
+                }
+            }
+            out
+        };
+        let (a, b) = bytes.split_at(cut.index(bytes.len() + 1));
+        prop_assert_eq!(events(&[&bytes]), events(&[a, b]));
     }
 
     #[test]

@@ -1,0 +1,197 @@
+//! `aibr ptu` and `aibr capture --turntable ptu:PATH` against `aibr ptu emulate`, over a real
+//! pseudo-terminal.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Output, Stdio};
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn aibr() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_aibr"))
+}
+
+/// An emulator process, stopped when dropped.
+struct Emulated {
+    child: Child,
+    path: String,
+}
+
+impl Drop for Emulated {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn emulate() -> Result<Emulated, Box<dyn std::error::Error>> {
+    let mut child = aibr()
+        .args(["ptu", "emulate", "--speedup", "20"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()?;
+    let stdout = child.stdout.take().ok_or("no stdout")?;
+    let mut line = String::new();
+    BufReader::new(stdout).read_line(&mut line)?;
+    let path = line.trim().to_owned();
+    assert!(path.starts_with("/dev/"), "emulate printed {line:?}");
+    Ok(Emulated { child, path })
+}
+
+fn ptu(unit: &Emulated, args: &[&str]) -> Result<Output, Box<dyn std::error::Error>> {
+    let out = aibr()
+        .args(["ptu", "--port", &unit.path])
+        .args(args)
+        .output()?;
+    assert!(
+        out.status.success(),
+        "aibr ptu {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Ok(out)
+}
+
+fn json(out: &Output) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
+    Ok(serde_json::from_slice(&out.stdout)?)
+}
+
+#[test]
+fn info_move_limits_home_halt() -> TestResult {
+    let unit = emulate()?;
+    let info = json(&ptu(&unit, &["info", "--json"])?)?;
+    assert_eq!(info["pan"]["resolution_arcsec"], 185.1428);
+    assert_eq!(info["pan"]["min_steps"], -3090);
+    assert_eq!(info["pan"]["max_steps"], 3090);
+    assert_eq!(info["limits_enabled"], true);
+    assert_eq!(info["echo_was_on"], true);
+    assert_eq!(info["pan_steps"], 0);
+
+    let at = json(&ptu(&unit, &["move", "30", "--json"])?)?;
+    assert_eq!(
+        at["pan_steps"],
+        (30.0 * 3600.0 / 185.1428_f64).round() as i64
+    );
+    let at = json(&ptu(&unit, &["move", "-10", "--relative", "--json"])?)?;
+    assert_eq!(
+        at["pan_steps"],
+        (30.0 * 3600.0 / 185.1428_f64).round() as i64
+            - (10.0 * 3600.0 / 185.1428_f64).round() as i64
+    );
+
+    // 160 degrees is beyond the soft limit (158.9): refused with the limit, then allowed.
+    let refused = aibr()
+        .args(["ptu", "--port", &unit.path, "move", "160"])
+        .output()?;
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("Maximum allowable Pan position is 3090"),
+        "{err}"
+    );
+    assert!(String::from_utf8_lossy(&ptu(&unit, &["limits", "off"])?.stdout).contains("off"));
+    let at = json(&ptu(&unit, &["move", "160", "--json"])?)?;
+    assert_eq!(
+        at["pan_steps"],
+        (160.0 * 3600.0 / 185.1428_f64).round() as i64
+    );
+    ptu(&unit, &["limits", "on"])?;
+
+    let home = json(&ptu(&unit, &["home", "--json"])?)?;
+    assert_eq!(home["pan_steps"], 0);
+    let text = String::from_utf8_lossy(&ptu(&unit, &["halt"])?.stdout).into_owned();
+    assert!(text.contains("pan at 0.0000 deg (0 steps)"), "{text}");
+    Ok(())
+}
+
+#[test]
+fn capture_turns_the_emulated_ptu() -> TestResult {
+    let unit = emulate()?;
+    let dir: PathBuf = std::env::temp_dir().join(format!("aibr-cli-ptu-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let turntable = format!("ptu:{}", unit.path);
+    let out = aibr()
+        .args([
+            "capture",
+            "--turntable",
+            &turntable,
+            "--camera",
+            "sim:lambertian",
+        ])
+        .args([
+            "--initial",
+            "4",
+            "--max",
+            "6",
+            "--grid",
+            "24",
+            "--json",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = json(&out)?;
+    assert_eq!(report["rig"], format!("{turntable}+sim:lambertian"));
+    let views = report["views"].as_array().ok_or("no views")?;
+    assert_eq!(views.len(), 6);
+    let step = 185.1428 / 3600.0;
+    for v in views {
+        let deg = v["pan_deg"].as_f64().ok_or("pan")?;
+        // Every angle is one the unit reached: a whole number of its steps, inside its limits.
+        assert!(((deg / step) - (deg / step).round()).abs() < 1e-6, "{deg}");
+        assert!(deg.abs() <= 3090.0 * step + 1e-9, "{deg}");
+    }
+    // The unit ends where the last view was taken.
+    let info = json(&ptu(&unit, &["info", "--json"])?)?;
+    let last = views[5]["pan_deg"].as_f64().ok_or("pan")?;
+    assert!((info["pan_deg"].as_f64().ok_or("pan")? - last).abs() < 1e-9);
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+#[test]
+fn bad_ports_and_specs_are_named() -> TestResult {
+    let out = aibr()
+        .args(["ptu", "--port", "/dev/aibr-no-such-port", "info"])
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/dev/aibr-no-such-port"));
+
+    let out = aibr().args(["ptu", "info"]).output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--port"));
+
+    let out = aibr()
+        .args([
+            "capture",
+            "--turntable",
+            "usb:0",
+            "--camera",
+            "sim:mirror",
+            "--out",
+            "/tmp/aibr-unused",
+        ])
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected ptu:PATH"));
+
+    let out = aibr()
+        .args([
+            "capture",
+            "--turntable",
+            "ptu:/dev/null",
+            "--out",
+            "/tmp/aibr-unused",
+        ])
+        .output()?;
+    assert!(
+        !out.status.success(),
+        "--turntable without --camera must be refused"
+    );
+    assert!(!std::path::Path::new("/tmp/aibr-unused").exists());
+    Ok(())
+}
