@@ -520,7 +520,7 @@ impl<P: Read + Write> Ptu<P> {
     pub fn command(&mut self, cmd: Command, timeout: Duration) -> Result<String> {
         let query = cmd.is_query();
         self.transact(cmd, timeout, |t| {
-            (query == !t.is_empty()).then(|| t.to_owned())
+            (query != t.is_empty()).then(|| t.to_owned())
         })
     }
 

@@ -1,5 +1,8 @@
 //! The driver against the emulator: in memory and over a pseudo-terminal.
 
+// Test helpers too may stop a test loudly.
+#![allow(clippy::unwrap_used)]
+
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};

@@ -6,6 +6,9 @@
 //! The default run is small; a longer soak:
 //! `AIBR_PTU_FAULT_RUNS=2000 cargo test --release -p aibr-ptu --test faults -- --ignored --nocapture`
 
+// Test helpers too may stop a test loudly.
+#![allow(clippy::unwrap_used)]
+
 use std::time::{Duration, Instant};
 
 use aibr_ptu::{Axis, EmulatedPort, Emulator, EmulatorConfig, Error, Faults, Ptu, PtuOptions};
