@@ -104,6 +104,9 @@ pub enum Error {
     /// From the PTU-46 driver.
     #[error("PTU: {0}")]
     Ptu(#[from] aibr_ptu::Error),
+    /// From the webcam.
+    #[error("camera: {0}")]
+    V4l(#[from] aibr_v4l::Error),
 }
 
 /// Result alias of aibr.

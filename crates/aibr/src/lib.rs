@@ -32,12 +32,15 @@ pub mod eval;
 mod ptu_rig;
 pub mod rig;
 pub mod session;
+#[cfg(all(feature = "v4l", target_os = "linux"))]
+mod webcam;
 
 pub use aibr_camera as camera;
 pub use aibr_consistency as consistency;
 pub use aibr_ptu as ptu;
 pub use aibr_render as render;
 pub use aibr_scene as scene;
+pub use aibr_v4l as v4l;
 pub use aibr_voxel as voxel;
 
 pub use capture::{
@@ -49,6 +52,8 @@ pub use eval::{Checkpoint, EvalParams, StrategyEval, evaluate};
 pub use ptu_rig::PtuTurntable;
 pub use rig::{Calibration, Frame, FrameSource, Rig, SceneCamera, SimRig, Turntable, ptu46_step};
 pub use session::{FORMAT_VERSION, LoadedView, Session, SessionFile, write_atomic};
+#[cfg(all(feature = "v4l", target_os = "linux"))]
+pub use webcam::V4lCamera;
 
 use session::{CalibrationRecord, ParametersRecord, TurntableRecord};
 
@@ -122,6 +127,7 @@ pub fn new_session_with_volume<R: Turntable + FrameSource>(
                 consistent_below: params.consistent_below,
             },
             views: Vec::new(),
+            camera_settings: rig.settings(),
         },
     )
 }

@@ -40,6 +40,12 @@ pub trait FrameSource {
     fn known_volume(&self) -> Option<Aabb> {
         None
     }
+
+    /// Settings to record in the session with the views (a webcam's exposure, white balance
+    /// and gain).
+    fn settings(&self) -> Option<serde_json::Value> {
+        None
+    }
 }
 
 /// A rig made of a turntable and a camera from different sources (for example the PTU-46
@@ -75,6 +81,10 @@ impl<T, C: FrameSource> FrameSource for Rig<T, C> {
 
     fn known_volume(&self) -> Option<Aabb> {
         self.camera.known_volume()
+    }
+
+    fn settings(&self) -> Option<serde_json::Value> {
+        self.camera.settings()
     }
 }
 

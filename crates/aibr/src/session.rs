@@ -113,6 +113,10 @@ pub struct SessionFile {
     pub parameters: ParametersRecord,
     /// The views, in capture order.
     pub views: Vec<ViewRecord>,
+    /// What the camera reported of its settings (for a webcam: the exposure, white balance
+    /// and gain in force), absent for a synthetic camera.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_settings: Option<serde_json::Value>,
 }
 
 impl CalibrationRecord {

@@ -37,6 +37,11 @@ enum Command {
     Eval(EvalArgs),
     /// Drive a PTU-46 pan-tilt unit on a serial port, or emulate one on a pseudo-terminal.
     Ptu(PtuArgs),
+    /// Webcams (V4L2; needs a build with the v4l feature).
+    V4l {
+        #[command(subcommand)]
+        command: V4lCommand,
+    },
     /// Synthetic scenes.
     Scene {
         #[command(subcommand)]
@@ -54,9 +59,27 @@ struct CaptureArgs {
     #[arg(long, value_name = "ptu:PATH", requires = "camera")]
     turntable: Option<String>,
     /// The camera that looks at the turntable: sim:SCENE renders a synthetic scene at the
-    /// angle the turntable reports.
-    #[arg(long, value_name = "sim:SCENE", requires = "turntable")]
+    /// angle the turntable reports; v4l:DEVICE is a webcam (needs --calibration, and a build
+    /// with the v4l feature).
+    #[arg(long, value_name = "sim:SCENE|v4l:DEVICE", requires = "turntable")]
     camera: Option<String>,
+    /// The rig's calibration for a real camera: JSON in the form of session.json's
+    /// "calibration" record (intrinsics, distortion, size, pan axis, pose at pan 0).
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
+    /// Webcam: fresh frames averaged per view (after the turntable stopped).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    average: u32,
+    /// Webcam exposure: lock (turn automatic exposure off at the current value), auto, or a
+    /// value in the device's units (100 µs for exposure_absolute).
+    #[arg(long, default_value = "lock")]
+    exposure: String,
+    /// Webcam white balance: lock, auto, or a temperature in kelvin.
+    #[arg(long, default_value = "lock")]
+    white_balance: String,
+    /// Webcam gain: lock, auto, or a value.
+    #[arg(long, default_value = "lock")]
+    gain: String,
     /// The turntable's serial speed.
     #[arg(long, default_value_t = 9600)]
     baud: u32,
@@ -147,6 +170,16 @@ enum PtuAction {
         /// Move this many times faster than a real unit (speeds, acceleration, homing).
         #[arg(long, default_value_t = 1.0)]
         speedup: f64,
+    },
+}
+
+#[derive(Subcommand)]
+enum V4lCommand {
+    /// The capture devices, their formats and frame sizes.
+    List {
+        /// Print machine-readable output.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -281,8 +314,47 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render(a),
         Command::Eval(a) => eval(a),
         Command::Ptu(a) => ptu(a),
+        Command::V4l { command } => v4l(command),
         Command::Scene { command } => scene(command),
     }
+}
+
+#[cfg(feature = "v4l")]
+fn v4l(command: V4lCommand) -> Result<()> {
+    let V4lCommand::List { json } = command;
+    let devices = aibr::v4l::device::list()?;
+    if json {
+        let list: Vec<_> = devices
+            .iter()
+            .map(|d| {
+                serde_json::json!({
+                    "path": d.path, "card": d.card, "driver": d.driver, "bus": d.bus,
+                    "formats": d.offers.iter().map(|o| o.to_string()).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&list)?);
+        return Ok(());
+    }
+    if devices.is_empty() {
+        println!("no video capture devices");
+    }
+    for d in devices {
+        println!("{}: {} ({}, {})", d.path.display(), d.card, d.driver, d.bus);
+        for o in &d.offers {
+            let usable = aibr::v4l::PixelFormat::from_fourcc(o.fourcc).is_some();
+            println!("    {o}{}", if usable { "" } else { " (not usable)" });
+        }
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "v4l"))]
+fn v4l(_command: V4lCommand) -> Result<()> {
+    bail!(
+        "this aibr was built without webcam support; build it with \
+         `cargo build --release -p aibr-cli --features v4l` (needs libclang: apt-get install libclang-dev)"
+    )
 }
 
 fn open_ptu(port: &str, baud: u32) -> Result<aibr::ptu::SerialPtu> {
@@ -442,16 +514,19 @@ fn exr(path: &Path, depth: &aibr::voxel::DepthMap) -> Result<()> {
 }
 
 fn capture(a: CaptureArgs) -> Result<()> {
-    match (&a.turntable, &a.camera) {
+    match (a.turntable.clone(), a.camera.clone()) {
         (Some(t), Some(c)) => {
             let Some(port) = t.strip_prefix("ptu:") else {
                 bail!("--turntable {t:?}: expected ptu:PATH (a PTU-46 on serial device PATH)");
             };
-            let turntable = aibr::PtuTurntable::new(open_ptu(port, a.baud)?)?;
-            let camera = aibr::SceneCamera::from_spec(c, aibr::Turntable::step(&turntable))
-                .with_context(|| format!("--camera {c:?}: expected sim:SCENE"))?;
-            let calibration = camera.calibration()?;
             let spec = format!("{t}+{c}");
+            if let Some(device) = c.strip_prefix("v4l:") {
+                return capture_webcam(a, &spec, port, device);
+            }
+            let turntable = aibr::PtuTurntable::new(open_ptu(port, a.baud)?)?;
+            let camera = aibr::SceneCamera::from_spec(&c, aibr::Turntable::step(&turntable))
+                .with_context(|| format!("--camera {c:?}: expected sim:SCENE or v4l:DEVICE"))?;
+            let calibration = camera.calibration()?;
             let mut rig = aibr::Rig { turntable, camera };
             capture_on(a, &spec, &mut rig, &calibration)
         }
@@ -462,6 +537,71 @@ fn capture(a: CaptureArgs) -> Result<()> {
             capture_on(a, &spec, &mut rig, &calibration)
         }
     }
+}
+
+/// Reads a calibration in the form of session.json's "calibration" record.
+#[cfg_attr(not(feature = "v4l"), allow(dead_code))]
+fn read_calibration(path: &Path) -> Result<aibr::Calibration> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let record: aibr::session::CalibrationRecord = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a calibration record", path.display()))?;
+    record
+        .calibration()
+        .with_context(|| format!("{}: invalid calibration", path.display()))
+}
+
+#[cfg(feature = "v4l")]
+fn control_setting(name: &str, value: &str) -> Result<aibr::v4l::device::ControlSetting> {
+    use aibr::v4l::device::ControlSetting;
+    Ok(match value {
+        "lock" => ControlSetting::Lock,
+        "auto" => ControlSetting::Auto,
+        v => ControlSetting::Manual(
+            v.parse()
+                .with_context(|| format!("--{name} {v:?}: expected lock, auto or an integer"))?,
+        ),
+    })
+}
+
+#[cfg(feature = "v4l")]
+fn capture_webcam(a: CaptureArgs, spec: &str, port: &str, device: &str) -> Result<()> {
+    let Some(path) = a.calibration.clone() else {
+        bail!(
+            "--camera v4l:{device} needs --calibration FILE (the webcam's intrinsics and the pan axis)"
+        );
+    };
+    if a.average == 0 {
+        bail!("--average 0: at least one frame");
+    }
+    let mut calibration = read_calibration(&path)?;
+    let options = aibr::v4l::device::WebcamOptions {
+        exposure: control_setting("exposure", &a.exposure)?,
+        white_balance: control_setting("white-balance", &a.white_balance)?,
+        gain: control_setting("gain", &a.gain)?,
+        ..Default::default()
+    };
+    let policy = aibr::v4l::SettlePolicy {
+        frames: a.average,
+        ..Default::default()
+    };
+    let camera = aibr::V4lCamera::open(Path::new(device), &calibration.camera, options, policy)?;
+    // The views are stored undistorted: the session's camera has no distortion.
+    calibration.camera.distortion = aibr::camera::Distortion::default();
+    let turntable = aibr::PtuTurntable::new(open_ptu(port, a.baud)?)?;
+    let mut rig = aibr::Rig { turntable, camera };
+    capture_on(a, spec, &mut rig, &calibration)
+}
+
+#[cfg(not(feature = "v4l"))]
+fn capture_webcam(a: CaptureArgs, _spec: &str, _port: &str, device: &str) -> Result<()> {
+    if let Some(path) = &a.calibration {
+        read_calibration(path)?;
+    }
+    bail!(
+        "--camera v4l:{device}: this aibr was built without webcam support; build it with \
+         `cargo build --release -p aibr-cli --features v4l` (needs libclang: apt-get install libclang-dev)"
+    )
 }
 
 fn capture_on<R: aibr::Turntable + aibr::FrameSource>(

@@ -195,3 +195,108 @@ fn bad_ports_and_specs_are_named() -> TestResult {
     assert!(!std::path::Path::new("/tmp/aibr-unused").exists());
     Ok(())
 }
+
+#[test]
+fn webcams_need_a_calibration_and_name_the_device() -> TestResult {
+    let dir = std::env::temp_dir().join(format!("aibr-cli-v4l-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir)?;
+    let out = aibr()
+        .args([
+            "capture",
+            "--turntable",
+            "ptu:/dev/null",
+            "--camera",
+            "v4l:/dev/video99",
+        ])
+        .arg("--out")
+        .arg(dir.join("s"))
+        .output()?;
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    if cfg!(feature = "v4l") {
+        assert!(err.contains("--calibration"), "{err}");
+    } else {
+        assert!(err.contains("--features v4l"), "{err}");
+    }
+
+    // A calibration in session.json's form, taken from a synthetic session.
+    let session = dir.join("sim");
+    let ok = aibr()
+        .args([
+            "capture",
+            "--rig",
+            "sim:lambertian",
+            "--initial",
+            "3",
+            "--max",
+            "3",
+            "--grid",
+            "16",
+            "--out",
+        ])
+        .arg(&session)
+        .stdout(Stdio::null())
+        .status()?;
+    assert!(ok.success());
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(session.join("session.json"))?)?;
+    let calibration = dir.join("calibration.json");
+    std::fs::write(&calibration, serde_json::to_string(&file["calibration"])?)?;
+    let out = aibr()
+        .args([
+            "capture",
+            "--turntable",
+            "ptu:/dev/null",
+            "--camera",
+            "v4l:/dev/video99",
+            "--calibration",
+        ])
+        .arg(&calibration)
+        .arg("--out")
+        .arg(dir.join("s"))
+        .output()?;
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    if cfg!(feature = "v4l") {
+        assert!(err.contains("/dev/video99: no such video device"), "{err}");
+    } else {
+        assert!(err.contains("--features v4l"), "{err}");
+    }
+    assert!(
+        !dir.join("s").exists(),
+        "nothing is created when the camera fails"
+    );
+
+    // A calibration file that is not one is named.
+    std::fs::write(&calibration, "{\"intrinsics\": 3}")?;
+    let out = aibr()
+        .args([
+            "capture",
+            "--turntable",
+            "ptu:/dev/null",
+            "--camera",
+            "v4l:/dev/video99",
+            "--calibration",
+        ])
+        .arg(&calibration)
+        .arg("--out")
+        .arg(dir.join("s"))
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not a calibration record"));
+
+    let out = aibr().args(["v4l", "list"]).output()?;
+    if cfg!(feature = "v4l") {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    } else {
+        assert!(!out.status.success());
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--features v4l"));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}

@@ -71,10 +71,15 @@ mod tests {
     fn exact_mean_and_sizes() {
         let mut a = FrameAverager::new();
         assert!(a.mean().is_none());
-        a.add(&RgbImage::from_raw(1, 1, vec![0, 10, 255]).unwrap()).unwrap();
-        a.add(&RgbImage::from_raw(1, 1, vec![1, 11, 255]).unwrap()).unwrap();
+        a.add(&RgbImage::from_raw(1, 1, vec![0, 10, 255]).unwrap())
+            .unwrap();
+        a.add(&RgbImage::from_raw(1, 1, vec![1, 11, 255]).unwrap())
+            .unwrap();
         assert_eq!(a.mean().unwrap().as_raw(), &[1, 11, 255]);
-        assert!(matches!(a.add(&RgbImage::new(2, 1)), Err(Error::SizeMismatch { .. })));
+        assert!(matches!(
+            a.add(&RgbImage::new(2, 1)),
+            Err(Error::SizeMismatch { .. })
+        ));
         a.clear();
         a.add(&RgbImage::new(2, 1)).unwrap();
         assert_eq!(a.count(), 1);

@@ -65,7 +65,10 @@ impl RawFrame<'_> {
         if matches!(self.format, PixelFormat::Yuyv | PixelFormat::Nv12) && self.width % 2 == 1 {
             return Err(Error::InvalidParameter {
                 name: "frame width",
-                reason: format!("{} frames have an even width, not {}", self.format, self.width),
+                reason: format!(
+                    "{} frames have an even width, not {}",
+                    self.format, self.width
+                ),
             });
         }
         let bad = |expected| Error::BadFrame {
@@ -156,7 +159,10 @@ pub fn to_rgb(frame: &RawFrame<'_>, out: &mut RgbImage) -> Result<()> {
         }
         PixelFormat::Grey => {
             for (row, line) in dst.chunks_exact_mut(3 * w).enumerate() {
-                for (px, &g) in line.chunks_exact_mut(3).zip(&src[row * stride..row * stride + w]) {
+                for (px, &g) in line
+                    .chunks_exact_mut(3)
+                    .zip(&src[row * stride..row * stride + w])
+                {
                     px.fill(g);
                 }
             }
@@ -184,13 +190,47 @@ mod tests {
     #[test]
     fn short_buffers_and_odd_widths_are_errors() {
         let mut out = RgbImage::new(1, 1);
-        let f = RawFrame { format: PixelFormat::Yuyv, width: 4, height: 2, stride: 0, data: &[0; 15] };
-        assert!(matches!(to_rgb(&f, &mut out), Err(Error::BadFrame { expected: 16, len: 15, .. })));
-        let f = RawFrame { format: PixelFormat::Yuyv, width: 3, height: 2, stride: 0, data: &[0; 12] };
-        assert!(matches!(to_rgb(&f, &mut out), Err(Error::InvalidParameter { .. })));
-        let f = RawFrame { format: PixelFormat::Rgb3, width: 2, height: 2, stride: 4, data: &[0; 16] };
+        let f = RawFrame {
+            format: PixelFormat::Yuyv,
+            width: 4,
+            height: 2,
+            stride: 0,
+            data: &[0; 15],
+        };
+        assert!(matches!(
+            to_rgb(&f, &mut out),
+            Err(Error::BadFrame {
+                expected: 16,
+                len: 15,
+                ..
+            })
+        ));
+        let f = RawFrame {
+            format: PixelFormat::Yuyv,
+            width: 3,
+            height: 2,
+            stride: 0,
+            data: &[0; 12],
+        };
+        assert!(matches!(
+            to_rgb(&f, &mut out),
+            Err(Error::InvalidParameter { .. })
+        ));
+        let f = RawFrame {
+            format: PixelFormat::Rgb3,
+            width: 2,
+            height: 2,
+            stride: 4,
+            data: &[0; 16],
+        };
         assert!(matches!(to_rgb(&f, &mut out), Err(Error::BadFrame { .. })));
-        let f = RawFrame { format: PixelFormat::Mjpeg, width: 2, height: 2, stride: 0, data: b"not a jpeg" };
+        let f = RawFrame {
+            format: PixelFormat::Mjpeg,
+            width: 2,
+            height: 2,
+            stride: 0,
+            data: b"not a jpeg",
+        };
         assert!(matches!(to_rgb(&f, &mut out), Err(Error::Decode { .. })));
     }
 
@@ -198,9 +238,18 @@ mod tests {
     fn strides_and_grey() {
         // 2x2 grey with 3 bytes of padding per line.
         let data = [10, 20, 0, 0, 0, 30, 40];
-        let f = RawFrame { format: PixelFormat::Grey, width: 2, height: 2, stride: 5, data: &data };
+        let f = RawFrame {
+            format: PixelFormat::Grey,
+            width: 2,
+            height: 2,
+            stride: 5,
+            data: &data,
+        };
         let mut out = RgbImage::new(0, 0);
         to_rgb(&f, &mut out).unwrap();
-        assert_eq!(out.as_raw(), &[10, 10, 10, 20, 20, 20, 30, 30, 30, 40, 40, 40]);
+        assert_eq!(
+            out.as_raw(),
+            &[10, 10, 10, 20, 20, 20, 30, 30, 30, 40, 40, 40]
+        );
     }
 }

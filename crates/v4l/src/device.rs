@@ -15,7 +15,9 @@ use v4l::{Device, FourCC};
 use crate::convert::RawFrame;
 use crate::error::{Error, Result};
 use crate::format::{Offer, PixelFormat, choose};
-use crate::settle::{FrameStream, SettlePolicy, Settled, StreamFrame, TimestampSource, capture_settled};
+use crate::settle::{
+    FrameStream, SettlePolicy, Settled, StreamFrame, TimestampSource, capture_settled,
+};
 
 // Control ids of <linux/v4l2-controls.h>.
 const CID_EXPOSURE_AUTO: u32 = 0x009a_0901;
@@ -59,7 +61,10 @@ fn io_error(path: &Path, action: &'static str, e: io::Error) -> Error {
 
 fn offers(dev: &Device, path: &Path) -> Result<Vec<Offer>> {
     let mut out = Vec::new();
-    for f in dev.enum_formats().map_err(|e| io_error(path, "listing formats", e))? {
+    for f in dev
+        .enum_formats()
+        .map_err(|e| io_error(path, "listing formats", e))?
+    {
         let sizes = dev
             .enum_framesizes(f.fourcc)
             .map_err(|e| io_error(path, "listing frame sizes", e))?;
@@ -304,8 +309,20 @@ impl Webcam {
         let find = |id| described.iter().find(|d| d.id == id);
         let mut record = ControlRecord::default();
         let groups = [
-            ("exposure", CID_EXPOSURE_AUTO, EXPOSURE_MANUAL, CID_EXPOSURE_ABSOLUTE, options.exposure),
-            ("white balance", CID_AUTO_WHITE_BALANCE, 0, CID_WHITE_BALANCE_TEMPERATURE, options.white_balance),
+            (
+                "exposure",
+                CID_EXPOSURE_AUTO,
+                EXPOSURE_MANUAL,
+                CID_EXPOSURE_ABSOLUTE,
+                options.exposure,
+            ),
+            (
+                "white balance",
+                CID_AUTO_WHITE_BALANCE,
+                0,
+                CID_WHITE_BALANCE_TEMPERATURE,
+                options.white_balance,
+            ),
             ("gain", CID_AUTOGAIN, 0, CID_GAIN, options.gain),
         ];
         for (name, auto_id, manual_mode, value_id, setting) in groups {

@@ -70,7 +70,12 @@ impl Default for SettlePolicy {
 
 impl SettlePolicy {
     /// Whether a frame with `timestamp` was exposed wholly after `motion_end` + settle.
-    pub fn is_fresh(&self, timestamp: Duration, source: TimestampSource, motion_end: Duration) -> bool {
+    pub fn is_fresh(
+        &self,
+        timestamp: Duration,
+        source: TimestampSource,
+        motion_end: Duration,
+    ) -> bool {
         let exposure_start = match source {
             TimestampSource::StartOfExposure => Some(timestamp),
             TimestampSource::EndOfFrame => timestamp.checked_sub(self.frame_interval),
@@ -158,5 +163,8 @@ pub fn capture_settled<S: FrameStream + ?Sized>(
 /// record it when the turntable reports that it stopped.
 pub fn monotonic_now() -> Duration {
     let t = rustix::time::clock_gettime(rustix::time::ClockId::Monotonic);
-    Duration::new(t.tv_sec.max(0) as u64, t.tv_nsec.clamp(0, 999_999_999) as u32)
+    Duration::new(
+        t.tv_sec.max(0) as u64,
+        t.tv_nsec.clamp(0, 999_999_999) as u32,
+    )
 }
