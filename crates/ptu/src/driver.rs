@@ -71,8 +71,10 @@ impl Default for PtuOptions {
 impl PtuOptions {
     /// The longest one resynchronisation can take.
     pub fn resync_bound(&self) -> Duration {
-        // Up to three rounds of: the line going quiet (capped), then three short exchanges.
-        (self.quiet * 2 + self.drain_cap() + self.reply_timeout * 3) * 3
+        // Up to three rounds of: the line going quiet (capped), two short exchanges, and the
+        // check, which waits 1, 2 and 4 reply timeouts (the unit may still be busy with a
+        // move whose await timed out).
+        (self.quiet * 2 + self.drain_cap()) * 3 + self.reply_timeout * 13
     }
 
     fn drain_cap(&self) -> Duration {
@@ -425,6 +427,15 @@ impl<P: Read + Write> Ptu<P> {
             if attempt > 0 {
                 self.stats.retries += 1;
             }
+            // The motion settings the move's deadline assumes: a garbled command may have
+            // changed them on the unit.
+            for (param, value) in [
+                (AxisParam::Acceleration, a.acceleration),
+                (AxisParam::BaseSpeed, a.base_speed),
+                (AxisParam::Speed, a.speed),
+            ] {
+                self.set(axis, param, value)?;
+            }
             self.command(
                 Command::Set(axis, AxisParam::Position, target),
                 self.options.reply_timeout,
@@ -727,7 +738,7 @@ impl<P: Read + Write> Ptu<P> {
         self.stats.resyncs += 1;
         let timeout = self.options.reply_timeout;
         let mut why = String::from("no round completed");
-        for _ in 0..3 {
+        for round in 0..3u32 {
             match self.drain() {
                 Ok(()) => {}
                 Err(Error::OutOfSync(m)) => {
@@ -736,9 +747,10 @@ impl<P: Read + Write> Ptu<P> {
                 }
                 Err(e) => return Err(e),
             }
-            let wanted = match self.feedback {
-                Feedback::Terse => "TERSE",
-                Feedback::Verbose => "VERBOSE",
+            // Before connect has set terse feedback, the unit may be in either mode.
+            let wanted: &[&str] = match self.feedback {
+                Feedback::Terse => &["TERSE"],
+                Feedback::Verbose => &["TERSE", "VERBOSE"],
             };
             let mut steps = vec![Command::SetEcho(false)];
             if self.feedback == Feedback::Terse {
@@ -756,14 +768,16 @@ impl<P: Read + Write> Ptu<P> {
                 }
             }
             self.send(Command::QueryFeedback)?;
-            let deadline = Instant::now() + timeout;
+            let deadline = Instant::now() + timeout * (1 << round);
             loop {
                 match self.next_event(deadline)? {
                     None => {
                         why = "no answer to F".into();
                         break;
                     }
-                    Some(Event::Ok(t)) if t.to_ascii_uppercase().contains(wanted) => {
+                    Some(Event::Ok(t))
+                        if wanted.iter().any(|w| t.to_ascii_uppercase().contains(w)) =>
+                    {
                         return Ok(());
                     }
                     Some(Event::Limit(a)) => self.limit_hits.push(a),

@@ -296,3 +296,38 @@ fn opening_a_missing_device_names_it() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn connects_to_a_unit_left_terse_over_a_noisy_line() {
+    // An earlier session left the unit terse with echo off; the line garbles the first bytes
+    // the driver sends, so connect must resynchronise before it knows the mode.
+    let mut unit = unit();
+    unit.receive(b"ED FT ", Duration::ZERO);
+    unit.take_output();
+    let mut resyncs = 0;
+    for seed in 0..16 {
+        let port = EmulatedPort::with_faults(
+            unit.clone(),
+            Duration::from_millis(5),
+            aibr_ptu::Faults {
+                seed,
+                corrupt: 0.01,
+                ..Default::default()
+            },
+        );
+        let mut ptu = Ptu::connect(port, fast_options())
+            .unwrap_or_else(|e| panic!("seed {seed}: connect: {e}"));
+        assert!(!ptu.info().echo_was_on);
+        assert_eq!(ptu.info().pan.resolution_arcsec, 185.1428);
+        let r = ptu.move_to_steps(Axis::Pan, 321);
+        assert_eq!(
+            r.unwrap_or_else(|e| panic!("seed {seed}: move: {e} {:?}", ptu.stats())),
+            321
+        );
+        resyncs += ptu.stats().resyncs;
+    }
+    assert!(
+        resyncs > 0,
+        "the line should have needed a resynchronisation"
+    );
+}

@@ -4,7 +4,7 @@
 //! position.
 //!
 //! The default run is small; a longer soak:
-//! `AIBR_PTU_FAULT_RUNS=2000 cargo test --release -p aibr-ptu --test faults -- --ignored --nocapture`
+//! `AIBR_PTU_FAULT_RUNS=1000 cargo test --release -p aibr-ptu --test faults -- --ignored --nocapture`
 
 // Test helpers too may stop a test loudly.
 #![allow(clippy::unwrap_used)]
@@ -153,8 +153,7 @@ fn run(seed: u64) -> Tally {
     t
 }
 
-fn campaign(runs: u64, first_seed: u64) -> Tally {
-    let threads = 4;
+fn campaign(runs: u64, first_seed: u64, threads: u64) -> Tally {
     let handles: Vec<_> = (0..threads)
         .map(|w| {
             std::thread::spawn(move || {
@@ -177,7 +176,7 @@ fn campaign(runs: u64, first_seed: u64) -> Tally {
 
 #[test]
 fn randomized_faults_never_give_a_wrong_position_or_a_hang() {
-    let t = campaign(40, 1);
+    let t = campaign(40, 1, 4);
     eprintln!("{t:#?}");
     assert_eq!(t.runs, 40);
     assert_eq!(t.wrong_positions, 0);
@@ -217,8 +216,13 @@ fn soak() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(500);
+    // The runs mostly wait on timeouts: more threads than cores is fine.
+    let threads = std::env::var("AIBR_PTU_FAULT_THREADS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(8);
     let start = Instant::now();
-    let t = campaign(runs, 10_000);
+    let t = campaign(runs, 10_000, threads);
     println!(
         "{runs} runs in {:.1} s\n{t:#?}",
         start.elapsed().as_secs_f64()
