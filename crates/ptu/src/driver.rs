@@ -44,7 +44,10 @@ pub struct PtuOptions {
     pub move_margin: Duration,
     /// How long a reset (homing) may take (default 60 s; a PTU-46 takes about 10 s).
     pub reset_timeout: Duration,
-    /// How long the line must stay silent when resynchronising (default 100 ms).
+    /// How long the line must stay silent when resynchronising (default 100 ms). The driver
+    /// assumes that a line never holds a byte back for longer than this once it has gone
+    /// silent (a serial line or a USB adapter holds bytes for milliseconds); a unit that is
+    /// busy and answers late is handled by the resynchronisation's check.
     pub quiet: Duration,
     /// Attempts after the first, for a command whose reply is lost or garbled (default 3).
     pub retries: u32,
@@ -198,6 +201,8 @@ pub struct Ptu<P> {
     feedback: Feedback,
     limit_hits: Vec<Axis>,
     stats: DriverStats,
+    /// A command failed: replies may still be on their way, so resynchronise first.
+    dirty: bool,
 }
 
 /// A serial port as the driver opens it.
@@ -294,6 +299,7 @@ impl<P: Read + Write> Ptu<P> {
             feedback: Feedback::Verbose,
             limit_hits: Vec::new(),
             stats: DriverStats::default(),
+            dirty: false,
         };
         ptu.drain()?;
         // Echo: the reply to ED is preceded by "ED " when echo was on.
@@ -549,11 +555,18 @@ impl<P: Read + Write> Ptu<P> {
         timeout: Duration,
         accept: impl Fn(&str) -> Option<T>,
     ) -> Result<T> {
+        if self.dirty {
+            self.resync()?;
+            self.dirty = false;
+        }
         let mut last = None;
         for attempt in 0..=self.options.retries {
             if attempt > 0 {
                 self.stats.retries += 1;
-                self.resync()?;
+                if let Err(e) = self.resync() {
+                    self.dirty = true;
+                    return Err(e);
+                }
             }
             match self.exchange(cmd, timeout) {
                 Ok(Outcome::Ok(text)) => match accept(&text) {
@@ -595,12 +608,16 @@ impl<P: Read + Write> Ptu<P> {
                     });
                 }
                 Err(e) if recoverable(&e) => last = Some(e),
-                Err(e) => return Err(e),
+                Err(e) => {
+                    self.dirty = true;
+                    return Err(e);
+                }
             }
             if !cmd.idempotent() {
                 break;
             }
         }
+        self.dirty = true;
         Err(last.unwrap_or(Error::Timeout {
             command: cmd.text(),
             timeout,
@@ -643,6 +660,7 @@ impl<P: Read + Write> Ptu<P> {
                 _ => last = Some((p, now)),
             }
             if Instant::now() >= deadline {
+                self.dirty = true;
                 return Err(Error::OutOfSync(format!(
                     "the {axis} position did not settle (last answers {:?} and {p})",
                     last.map(|l| l.0)
