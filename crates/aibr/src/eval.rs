@@ -1,16 +1,104 @@
-//! Active against uniform, measured against ground truth on a synthetic rig.
+//! Active against uniform, measured against ground truth: on a synthetic rig (every
+//! uncaptured angle of a fine grid, rendered by the scene) or on a replay rig (every recorded
+//! view that was not captured).
 
 use std::path::Path;
 
-use aibr_camera::Angle;
+use aibr_camera::{Angle, Camera};
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
 use aibr_scene::RenderOptions;
 use aibr_voxel::Criterion;
+use image::{GrayImage, RgbImage};
 
 use crate::capture::{CaptureParams, Strategy, capture, reconstruct_views};
 use crate::error::{Error, Result};
-use crate::rig::{SimRig, Turntable};
+use crate::replay::ReplayRig;
+use crate::rig::{Calibration, FrameSource, SimRig, Turntable};
 use crate::session::{LoadedView, Session};
+
+/// A rig that knows the truth, so that capture strategies can be measured on it.
+pub trait EvalRig: Turntable + FrameSource + Sized {
+    /// The rig in its initial state, for a new capture.
+    fn fresh(&self) -> Result<Self>;
+    /// The rig's calibration.
+    fn eval_calibration(&self) -> Result<Calibration>;
+    /// Tells a resumed rig which views its session already holds.
+    fn already_captured(&mut self, _pans: &[Angle]) {}
+    /// The novel views to measure when `captured` were captured, with their true cameras;
+    /// `step` is the spacing of a grid of angles, where the rig can render any angle.
+    fn novel_views(&self, captured: &[Angle], step: Angle) -> Result<Vec<(Angle, Camera)>>;
+    /// The true image and object mask of a novel view.
+    fn truth(&self, pan: Angle, camera: &Camera) -> Result<(RgbImage, GrayImage)>;
+}
+
+impl EvalRig for SimRig {
+    fn fresh(&self) -> Result<Self> {
+        SimRig::new(self.scene_name())
+    }
+
+    fn eval_calibration(&self) -> Result<Calibration> {
+        self.calibration()
+    }
+
+    fn novel_views(&self, captured: &[Angle], step: Angle) -> Result<Vec<(Angle, Camera)>> {
+        let calibration = self.calibration()?;
+        let range = self.range();
+        let step = step.radians();
+        let mut out = Vec::new();
+        let mut a = range.min().radians();
+        while a <= range.max().radians() + 1e-9 {
+            let pan = Angle::from_radians(a);
+            a += step;
+            if !captured
+                .iter()
+                .any(|p| (p.radians() - pan.radians()).abs() < 0.5 * step)
+            {
+                out.push((pan, calibration.camera_at(pan)));
+            }
+        }
+        Ok(out)
+    }
+
+    fn truth(&self, _pan: Angle, camera: &Camera) -> Result<(RgbImage, GrayImage)> {
+        let truth = self.scene().render(camera, &RenderOptions::default())?;
+        Ok((truth.rgb8(), truth.mask))
+    }
+}
+
+impl EvalRig for ReplayRig {
+    fn fresh(&self) -> Result<Self> {
+        Ok(ReplayRig::fresh(self))
+    }
+
+    fn eval_calibration(&self) -> Result<Calibration> {
+        Ok(self.calibration())
+    }
+
+    fn already_captured(&mut self, pans: &[Angle]) {
+        for &p in pans {
+            self.mark_served(p);
+        }
+    }
+
+    fn novel_views(&self, captured: &[Angle], _step: Angle) -> Result<Vec<(Angle, Camera)>> {
+        let taken: Vec<usize> = captured.iter().filter_map(|&p| self.view_at(p)).collect();
+        Ok(self
+            .views()
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| !taken.contains(i))
+            .map(|(_, v)| (v.pan, v.camera.clone()))
+            .collect())
+    }
+
+    fn truth(&self, pan: Angle, _camera: &Camera) -> Result<(RgbImage, GrayImage)> {
+        let i = self
+            .view_at(pan)
+            .ok_or_else(|| Error::Rig(format!("no recorded view at {:.4} deg", pan.degrees())))?;
+        let v = &self.views()[i];
+        Ok((v.image.clone(), v.mask.clone()))
+    }
+}
 
 /// Parameters of [`evaluate`].
 #[derive(Debug, Clone, PartialEq)]
@@ -65,6 +153,21 @@ pub fn evaluate(
     work_dir: &Path,
     progress: &mut dyn FnMut(String),
 ) -> Result<Vec<StrategyEval>> {
+    let rig = SimRig::new(scene)?;
+    evaluate_rig(&rig, scene, &format!("sim:{scene}"), strategies, params, work_dir, progress)
+}
+
+/// [`evaluate`] on any rig that knows its truth: `name` names its sessions under
+/// `work_dir`, `spec` is recorded in them.
+pub fn evaluate_rig<R: EvalRig>(
+    rig: &R,
+    name: &str,
+    spec: &str,
+    strategies: &[Strategy],
+    params: &EvalParams,
+    work_dir: &Path,
+    progress: &mut dyn FnMut(String),
+) -> Result<Vec<StrategyEval>> {
     if params
         .checkpoints
         .iter()
@@ -93,9 +196,10 @@ pub fn evaluate(
             let session = match strategy {
                 Strategy::Active => {
                     if active.is_none() {
-                        let dir = work_dir.join(format!("{scene}-active"));
+                        let dir = work_dir.join(format!("{name}-active"));
                         active = Some(run(
-                            scene,
+                            rig,
+                            spec,
                             &dir,
                             &CaptureParams {
                                 strategy,
@@ -109,14 +213,14 @@ pub fn evaluate(
                         .ok_or(Error::Rig("no active session".into()))?
                 }
                 Strategy::Uniform => {
-                    let dir = work_dir.join(format!("{scene}-uniform-{n}"));
+                    let dir = work_dir.join(format!("{name}-uniform-{n}"));
                     let p = CaptureParams {
                         strategy,
                         max: n,
                         initial: n.min(params.capture.initial).max(3),
                         ..params.capture
                     };
-                    run(scene, &dir, &p, progress)?
+                    run(rig, spec, &dir, &p, progress)?
                 }
             };
             let views: Vec<LoadedView> = session.load_views()?.into_iter().take(n).collect();
@@ -124,7 +228,7 @@ pub fn evaluate(
                 "{} {n} views: rendering novel views",
                 strategy.name()
             ));
-            checkpoints.push(measure(scene, &views, &session, params)?);
+            checkpoints.push(measure(rig, &views, &session, params)?);
         }
         out.push(StrategyEval {
             strategy,
@@ -134,18 +238,32 @@ pub fn evaluate(
     Ok(out)
 }
 
-fn run(
-    scene: &str,
+fn run<R: EvalRig>(
+    template: &R,
+    spec: &str,
     dir: &Path,
     params: &CaptureParams,
     progress: &mut dyn FnMut(String),
 ) -> Result<Session> {
-    let mut rig = SimRig::new(scene)?;
-    let calibration = rig.calibration()?;
+    let mut rig = template.fresh()?;
+    let calibration = rig.eval_calibration()?;
     let mut session = if dir.join("session.json").exists() {
-        Session::open(dir)?
+        let s = Session::open(dir)?;
+        let pans: Vec<Angle> = s
+            .file()
+            .views
+            .iter()
+            .map(|v| Angle::from_radians(v.pan_rad))
+            .collect();
+        rig.already_captured(&pans);
+        s
     } else {
-        crate::new_session(dir, &format!("sim:{scene}"), &rig, &calibration, params)?
+        let volume = if rig.known_volume().is_some() {
+            crate::VolumeSource::Scene
+        } else {
+            crate::VolumeSource::Estimated
+        };
+        crate::new_session_with_volume(dir, spec, &rig, &calibration, params, volume)?
     };
     let name = params.strategy.name();
     capture(&mut rig, &mut session, params, &mut |p| {
@@ -156,20 +274,18 @@ fn run(
     Ok(session)
 }
 
-fn measure(
-    scene_name: &str,
+fn measure<R: EvalRig>(
+    rig: &R,
     views: &[LoadedView],
     session: &Session,
     params: &EvalParams,
 ) -> Result<Checkpoint> {
-    let rig = SimRig::new(scene_name)?;
-    let scene = rig.scene();
     let masks: Vec<_> = views
         .iter()
         .map(|v| {
             v.mask
                 .clone()
-                .ok_or(Error::Rig("the synthetic rig gives masks".into()))
+                .ok_or(Error::Rig("an evaluation needs the rig's object masks".into()))
         })
         .collect::<Result<_>>()?;
     let (rec, _) = reconstruct_views(
@@ -192,28 +308,14 @@ fn measure(
         .map(|v| Angle::from_radians(v.record.pan_rad))
         .collect();
     pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
-    let range = rig.range();
-    let step = params.step.radians();
-    let calibration = rig.calibration()?;
     // Per arc between neighbouring views: the PSNR of its novel views.
     let mut arcs: Vec<Vec<f64>> = vec![Vec::new(); pans.len().saturating_sub(1)];
     let (mut psnr_sum, mut ssim_sum, mut n) = (0.0, 0.0, 0usize);
-    let mut a = range.min().radians();
-    while a <= range.max().radians() + 1e-9 {
-        let pan = Angle::from_radians(a);
-        a += step;
-        if pans
-            .iter()
-            .any(|p| (p.radians() - pan.radians()).abs() < 0.5 * step)
-        {
-            continue;
-        }
-        let camera = calibration.camera_at(pan);
-        let truth = scene.render(&camera, &RenderOptions::default())?;
-        let truth8 = truth.rgb8();
+    for (pan, camera) in rig.novel_views(&pans, params.step)? {
+        let (truth, mask) = rig.truth(pan, &camera)?;
         let view = renderer.render(&camera)?;
-        let psnr = metrics::psnr(&truth8, &view.rgb, Some(&truth.mask))?;
-        let ssim = metrics::ssim(&truth8, &view.rgb, Some(&truth.mask))?;
+        let psnr = metrics::psnr(&truth, &view.rgb, Some(&mask))?;
+        let ssim = metrics::ssim(&truth, &view.rgb, Some(&mask))?;
         psnr_sum += psnr;
         ssim_sum += ssim;
         n += 1;

@@ -30,6 +30,7 @@ pub mod capture;
 pub mod error;
 pub mod eval;
 mod ptu_rig;
+pub mod replay;
 pub mod rig;
 pub mod session;
 #[cfg(all(feature = "v4l", target_os = "linux"))]
@@ -48,8 +49,9 @@ pub use capture::{
     reconstruct, reconstruct_views, render_session, uniform_pans,
 };
 pub use error::{Error, Result};
-pub use eval::{Checkpoint, EvalParams, StrategyEval, evaluate};
+pub use eval::{Checkpoint, EvalParams, EvalRig, StrategyEval, evaluate, evaluate_rig};
 pub use ptu_rig::PtuTurntable;
+pub use replay::ReplayRig;
 pub use rig::{Calibration, Frame, FrameSource, Rig, SceneCamera, SimRig, Turntable, ptu46_step};
 pub use session::{FORMAT_VERSION, LoadedView, Session, SessionFile, write_atomic};
 #[cfg(all(feature = "v4l", target_os = "linux"))]

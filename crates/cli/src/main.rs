@@ -193,15 +193,18 @@ enum OnOff {
 
 #[derive(clap::Args)]
 struct EvalArgs {
-    /// The rig: sim:SCENE.
+    /// The rig: sim:SCENE (the truth is the scene, rendered at every uncaptured angle), or
+    /// replay:DIR, a Middlebury-style ring folder (*_par.txt and images) whose recorded views
+    /// play turntable and camera: the views never captured are the truth.
     #[arg(long, default_value = "sim:mirror")]
     rig: String,
     /// Views captured uniformly first.
     #[arg(long, default_value_t = 12)]
     initial: usize,
-    /// The budget of views.
-    #[arg(long, default_value_t = 48)]
-    max: usize,
+    /// The budget of views (default 48; on a replay rig, three quarters of its views, so
+    /// that a quarter is held out).
+    #[arg(long)]
+    max: Option<usize>,
     /// The strategies to compare.
     #[arg(
         long,
@@ -744,21 +747,48 @@ fn volume_source(spec: &str) -> Result<aibr::VolumeSource> {
 }
 
 fn eval(a: EvalArgs) -> Result<()> {
-    let scene = a
-        .rig
-        .strip_prefix("sim:")
-        .with_context(|| format!("--rig {:?}: eval needs a synthetic rig, sim:SCENE", a.rig))?;
+    enum EvalOn {
+        Sim(aibr::SimRig, String),
+        Replay(aibr::ReplayRig, String),
+    }
+    let on = if let Some(scene) = a.rig.strip_prefix("sim:") {
+        EvalOn::Sim(aibr::SimRig::new(scene).with_context(|| format!("--rig {:?}", a.rig))?, scene.to_owned())
+    } else if a.rig.starts_with("replay:") {
+        let rig = aibr::ReplayRig::from_spec(&a.rig).with_context(|| format!("--rig {:?}", a.rig))?;
+        let name = rig
+            .dir()
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "replay".into());
+        EvalOn::Replay(rig, name)
+    } else {
+        bail!("--rig {:?}: eval needs sim:SCENE or replay:DIR", a.rig);
+    };
+    let max = match (&on, a.max) {
+        (_, Some(m)) => m,
+        (EvalOn::Sim(..), None) => 48,
+        (EvalOn::Replay(r, _), None) => r.views().len() * 3 / 4,
+    };
+    if let EvalOn::Replay(r, _) = &on {
+        if max >= r.views().len() {
+            bail!(
+                "--max {max}: {} has {} views, and the budget must leave some out as the truth",
+                r.dir().display(),
+                r.views().len()
+            );
+        }
+    }
     let checkpoints = if a.checkpoints.is_empty() {
         let mut c = vec![a.initial];
         let mut n = a.initial.div_ceil(12) * 12;
-        while n <= a.max {
+        while n <= max {
             if n > a.initial {
                 c.push(n);
             }
             n += 12;
         }
-        if c.last() != Some(&a.max) {
-            c.push(a.max);
+        if c.last() != Some(&max) {
+            c.push(max);
         }
         c
     } else {
@@ -775,7 +805,7 @@ fn eval(a: EvalArgs) -> Result<()> {
     let params = aibr::EvalParams {
         capture: CaptureParams {
             initial: a.initial,
-            max: a.max,
+            max,
             grid: a.capture_grid,
             ..CaptureParams::default()
         },
@@ -785,9 +815,15 @@ fn eval(a: EvalArgs) -> Result<()> {
     };
     std::fs::create_dir_all(&a.work).with_context(|| format!("creating {}", a.work.display()))?;
     let bar = ProgressBar::new_spinner();
-    let results = aibr::evaluate(scene, &strategies, &params, &a.work, &mut |m| {
-        bar.set_message(m)
-    })?;
+    let mut progress = |m: String| bar.set_message(m);
+    let results = match &on {
+        EvalOn::Sim(rig, name) => {
+            aibr::evaluate_rig(rig, name, &a.rig, &strategies, &params, &a.work, &mut progress)?
+        }
+        EvalOn::Replay(rig, name) => {
+            aibr::evaluate_rig(rig, name, &a.rig, &strategies, &params, &a.work, &mut progress)?
+        }
+    };
     bar.finish_and_clear();
     if a.json {
         let json: Vec<_> = results

@@ -5,7 +5,7 @@
 //! off and terse feedback on again (a power-cycled unit has lost both), and check that a
 //! known query gets its known answer. Only then is an idempotent command sent again; a
 //! relative move is never repeated (the driver moves by absolute positions). A position is
-//! only reported after two consecutive queries agree, and a move only succeeds when the
+//! only reported after three consecutive queries agree, and a move only succeeds when the
 //! verified position is its target.
 
 use std::io::{self, Read, Write};
@@ -399,8 +399,8 @@ impl<P: Read + Write> Ptu<P> {
         self.port
     }
 
-    /// The verified position of `axis` in steps: queried until two consecutive answers, at
-    /// least [`PtuOptions::settle_gap`] apart, agree (so neither a garbled answer nor a moving axis is reported).
+    /// The verified position of `axis` in steps: queried until three consecutive answers,
+    /// spanning at least [`PtuOptions::settle_gap`], agree (so neither a garbled answer nor a moving axis is reported).
     pub fn position_steps(&mut self, axis: Axis) -> Result<i32> {
         let deadline = Instant::now() + self.options.command_bound(self.options.reply_timeout);
         self.settled_position(axis, deadline)
@@ -640,30 +640,39 @@ impl<P: Read + Write> Ptu<P> {
     }
 
     fn settled_position(&mut self, axis: Axis, deadline: Instant) -> Result<i32> {
-        // Two answers that agree across this gap rule out an axis moving at the unit's
+        // Answers that agree across this gap rule out an axis moving at the unit's
         // lowest speed (1.5 steps at least), whatever speed a garbled command may have set.
         let slowest = self.info.axis(axis).lower_speed.max(1) as f64;
         let gap = self
             .options
             .settle_gap
             .max(Duration::from_secs_f64((1.5 / slowest).min(10.0)));
-        let mut last: Option<(i32, Instant)> = None;
+        // Three answers in a row must agree: two garbled the same way (a digit dropped from
+        // each) happen at realistic-to-bad error rates; three practically never.
+        const AGREE: u32 = 3;
+        let mut run: Option<(i32, Instant, u32)> = None;
         loop {
             let p = self.query_int(axis, AxisParam::Position)?;
             let now = Instant::now();
-            match last {
-                Some((q, t)) if q == p && now.duration_since(t) >= gap => return Ok(p),
-                Some((q, t)) if q == p => {
-                    // Agreeing, but too close together to rule out a slow axis: look again.
-                    std::thread::sleep(gap.saturating_sub(now.duration_since(t)));
+            run = match run {
+                Some((q, t, n)) if q == p => Some((q, t, n + 1)),
+                _ => Some((p, now, 1)),
+            };
+            if let Some((q, t, n)) = run {
+                let waited = now.duration_since(t);
+                if n >= AGREE && waited >= gap {
+                    return Ok(q);
                 }
-                _ => last = Some((p, now)),
+                if n + 1 >= AGREE && waited < gap {
+                    // Agreeing, but too close together to rule out a slow axis: look again
+                    // once the gap has passed.
+                    std::thread::sleep(gap - waited);
+                }
             }
             if Instant::now() >= deadline {
                 self.dirty = true;
                 return Err(Error::OutOfSync(format!(
-                    "the {axis} position did not settle (last answers {:?} and {p})",
-                    last.map(|l| l.0)
+                    "the {axis} position did not settle (last answer {p})"
                 )));
             }
         }

@@ -117,6 +117,9 @@ fn run(seed: u64) -> Tally {
         let target = (6000.0 * mix(seed, 10 + k) - 3000.0) as i32;
         let start = Instant::now();
         let r = ptu.move_to_steps(Axis::Pan, target);
+        if std::env::var_os("AIBR_PTU_FAULT_TRACE").is_some() {
+            eprintln!("seed {seed}: move to {target}: {r:?}, unit at {}", unit.emulator(|e| e.position(Axis::Pan)));
+        }
         // Moves here are shorter than 0.2 s at the emulated speed.
         if start.elapsed() > o.move_bound(Duration::from_millis(200)) {
             eprintln!("seed {seed}: move took {:?}", start.elapsed());
@@ -226,7 +229,11 @@ fn soak() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(8);
     let start = Instant::now();
-    let t = campaign(runs, 10_000, threads);
+    let first = std::env::var("AIBR_PTU_FAULT_FIRST_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10_000);
+    let t = campaign(runs, first, threads);
     println!(
         "{runs} runs in {:.1} s\n{t:#?}",
         start.elapsed().as_secs_f64()
