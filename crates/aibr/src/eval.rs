@@ -154,7 +154,15 @@ pub fn evaluate(
     progress: &mut dyn FnMut(String),
 ) -> Result<Vec<StrategyEval>> {
     let rig = SimRig::new(scene)?;
-    evaluate_rig(&rig, scene, &format!("sim:{scene}"), strategies, params, work_dir, progress)
+    evaluate_rig(
+        &rig,
+        scene,
+        &format!("sim:{scene}"),
+        strategies,
+        params,
+        work_dir,
+        progress,
+    )
 }
 
 /// [`evaluate`] on any rig that knows its truth: `name` names its sessions under
@@ -283,9 +291,9 @@ fn measure<R: EvalRig>(
     let masks: Vec<_> = views
         .iter()
         .map(|v| {
-            v.mask
-                .clone()
-                .ok_or(Error::Rig("an evaluation needs the rig's object masks".into()))
+            v.mask.clone().ok_or(Error::Rig(
+                "an evaluation needs the rig's object masks".into(),
+            ))
         })
         .collect::<Result<_>>()?;
     let (rec, _) = reconstruct_views(

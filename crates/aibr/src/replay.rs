@@ -38,11 +38,12 @@ struct Data {
     range: PanRange,
     step: Angle,
     volume: Option<Aabb>,
+    left_out: Vec<String>,
 }
 
 /// A ring data set as a rig. A request for a pan angle returns the nearest recorded view not
 /// yet returned (and reports its angle); the views never returned are the held-out ground
-/// truth. The ring frame comes from [`aibr_camera::fit_ring`]; the calibration's motion is
+/// truth. Views no turntable could have taken are left out ([`ReplayRig::left_out`]). The ring frame comes from [`aibr_camera::fit_ring`]; the calibration's motion is
 /// the circle fitted to the recorded poses, so the capture loop sees what a real turntable
 /// calibration would give.
 #[derive(Debug, Clone)]
@@ -99,12 +100,7 @@ impl ReplayRig {
                     .into(),
             })?;
         let records = read_middlebury_par(&par)?;
-        let ring = fit_ring(
-            &records
-                .iter()
-                .map(|v| v.cam_from_world)
-                .collect::<Vec<_>>(),
-        )?;
+        let ring = fit_ring(&records.iter().map(|v| v.cam_from_world).collect::<Vec<_>>())?;
         let mut views = Vec::with_capacity(records.len());
         for (r, pan) in records.iter().zip(&ring.pan_angles) {
             let path = dir.join(&r.image);
@@ -131,6 +127,32 @@ impl ReplayRig {
             path: par.clone(),
             reason: "the camera file lists no views".into(),
         })?;
+        // A gantry is not a turntable: Middlebury's rings include views taken from over the
+        // top of the sphere (upside down, rolled half a turn) and repeated poses. Keep the
+        // views that a turntable in front of the first camera would give: orientation within
+        // a few degrees of the circle through the first view, and no pose twice.
+        let circle = CircularMotion::about_z(first.camera.cam_from_world);
+        let mut left_out = Vec::new();
+        let mut kept: Vec<RecordedView> = Vec::with_capacity(views.len());
+        for v in views {
+            let predicted = circle.cam_from_world(v.pan);
+            let roll = (predicted.rotation.inverse() * v.camera.cam_from_world.rotation).angle();
+            let repeated = kept
+                .iter()
+                .any(|k| (k.pan.radians() - v.pan.radians()).abs() < 1e-4);
+            if roll > 5f64.to_radians() || repeated {
+                left_out.push(v.name);
+            } else {
+                kept.push(v);
+            }
+        }
+        let views = kept;
+        let Some(first) = views.first() else {
+            return Err(Error::BadSession {
+                path: par,
+                reason: "no view fits a turntable motion".into(),
+            });
+        };
         if views.iter().any(|v| v.camera.size != first.camera.size) {
             return Err(Error::BadSession {
                 path: par,
@@ -144,7 +166,7 @@ impl ReplayRig {
                 cam_from_world: v.camera.cam_from_world,
             })
             .collect();
-        let motion: CircularMotion = CircularMotion::fit(&samples)?.model;
+        let motion = CircularMotion::fit(&samples)?.model;
         let calibration = Calibration {
             camera: first.camera.clone(),
             motion,
@@ -172,6 +194,7 @@ impl ReplayRig {
                 range,
                 step: Angle::from_radians(if step.is_finite() { step } else { 1e-3 }),
                 volume,
+                left_out,
             }),
             served: vec![false; n],
             current: None,
@@ -184,6 +207,12 @@ impl ReplayRig {
             .strip_prefix("replay:")
             .ok_or_else(|| Error::UnknownRig(spec.to_owned()))?;
         Self::open(Path::new(dir))
+    }
+
+    /// The recorded views left out because no turntable could have taken them (rolled half a
+    /// turn, from over the top of a gantry) or because their pose repeats an earlier one.
+    pub fn left_out(&self) -> &[String] {
+        &self.data.left_out
     }
 
     /// The data set's folder.

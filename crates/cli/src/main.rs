@@ -752,9 +752,13 @@ fn eval(a: EvalArgs) -> Result<()> {
         Replay(aibr::ReplayRig, String),
     }
     let on = if let Some(scene) = a.rig.strip_prefix("sim:") {
-        EvalOn::Sim(aibr::SimRig::new(scene).with_context(|| format!("--rig {:?}", a.rig))?, scene.to_owned())
+        EvalOn::Sim(
+            aibr::SimRig::new(scene).with_context(|| format!("--rig {:?}", a.rig))?,
+            scene.to_owned(),
+        )
     } else if a.rig.starts_with("replay:") {
-        let rig = aibr::ReplayRig::from_spec(&a.rig).with_context(|| format!("--rig {:?}", a.rig))?;
+        let rig =
+            aibr::ReplayRig::from_spec(&a.rig).with_context(|| format!("--rig {:?}", a.rig))?;
         let name = rig
             .dir()
             .file_name()
@@ -817,12 +821,24 @@ fn eval(a: EvalArgs) -> Result<()> {
     let bar = ProgressBar::new_spinner();
     let mut progress = |m: String| bar.set_message(m);
     let results = match &on {
-        EvalOn::Sim(rig, name) => {
-            aibr::evaluate_rig(rig, name, &a.rig, &strategies, &params, &a.work, &mut progress)?
-        }
-        EvalOn::Replay(rig, name) => {
-            aibr::evaluate_rig(rig, name, &a.rig, &strategies, &params, &a.work, &mut progress)?
-        }
+        EvalOn::Sim(rig, name) => aibr::evaluate_rig(
+            rig,
+            name,
+            &a.rig,
+            &strategies,
+            &params,
+            &a.work,
+            &mut progress,
+        )?,
+        EvalOn::Replay(rig, name) => aibr::evaluate_rig(
+            rig,
+            name,
+            &a.rig,
+            &strategies,
+            &params,
+            &a.work,
+            &mut progress,
+        )?,
     };
     bar.finish_and_clear();
     if a.json {

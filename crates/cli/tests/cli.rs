@@ -552,3 +552,66 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     let _ = std::fs::remove_dir_all(&work);
     Ok(())
 }
+
+#[test]
+fn eval_replays_a_real_ring() -> TestResult {
+    let Some(data) = aibr_testdata::dataset("middlebury-templeRing") else {
+        return Ok(());
+    };
+    let work = temp("eval-replay");
+    let rig = format!("replay:{}", data.display());
+    let out = aibr()
+        .args([
+            "eval",
+            "--rig",
+            &rig,
+            "--initial",
+            "4",
+            "--max",
+            "8",
+            "--checkpoints",
+            "4,8",
+        ])
+        .args(["--grid", "32", "--capture-grid", "24", "--json", "--work"])
+        .arg(&work)
+        .output()?;
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let results = v["results"].as_array().ok_or("results")?;
+    assert_eq!(results.len(), 2);
+    let replay = aibr::ReplayRig::open(&data)?;
+    let recorded: Vec<f64> = replay.views().iter().map(|v| v.pan.degrees()).collect();
+    for r in results {
+        for c in r["checkpoints"].as_array().ok_or("checkpoints")? {
+            let n = c["views"].as_u64().ok_or("views")? as usize;
+            // Every view not captured is measured against its recorded image.
+            assert_eq!(
+                c["evaluated_views"].as_u64(),
+                Some((recorded.len() - n) as u64)
+            );
+            let psnr = c["mean_masked_psnr_db"].as_f64().ok_or("psnr")?;
+            assert!(psnr.is_finite() && psnr > 10.0, "{psnr}");
+            let pans = c["pans_deg"].as_array().ok_or("pans")?;
+            for p in pans {
+                let p = p.as_f64().ok_or("pan")?;
+                assert!(
+                    recorded.iter().any(|r| (r - p).abs() < 1e-6),
+                    "{p} is not a recorded view"
+                );
+            }
+        }
+    }
+    // A budget that holds nothing out is refused.
+    let out = aibr()
+        .args(["eval", "--rig", &rig, "--max", "60", "--work"])
+        .arg(&work)
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("must leave some out"));
+    let _ = std::fs::remove_dir_all(&work);
+    Ok(())
+}

@@ -118,7 +118,10 @@ fn run(seed: u64) -> Tally {
         let start = Instant::now();
         let r = ptu.move_to_steps(Axis::Pan, target);
         if std::env::var_os("AIBR_PTU_FAULT_TRACE").is_some() {
-            eprintln!("seed {seed}: move to {target}: {r:?}, unit at {}", unit.emulator(|e| e.position(Axis::Pan)));
+            eprintln!(
+                "seed {seed}: move to {target}: {r:?}, unit at {}",
+                unit.emulator(|e| e.position(Axis::Pan))
+            );
         }
         // Moves here are shorter than 0.2 s at the emulated speed.
         if start.elapsed() > o.move_bound(Duration::from_millis(200)) {
