@@ -748,12 +748,12 @@ fn volume_source(spec: &str) -> Result<aibr::VolumeSource> {
 
 fn eval(a: EvalArgs) -> Result<()> {
     enum EvalOn {
-        Sim(aibr::SimRig, String),
+        Sim(Box<aibr::SimRig>, String),
         Replay(aibr::ReplayRig, String),
     }
     let on = if let Some(scene) = a.rig.strip_prefix("sim:") {
         EvalOn::Sim(
-            aibr::SimRig::new(scene).with_context(|| format!("--rig {:?}", a.rig))?,
+            Box::new(aibr::SimRig::new(scene).with_context(|| format!("--rig {:?}", a.rig))?),
             scene.to_owned(),
         )
     } else if a.rig.starts_with("replay:") {
@@ -822,7 +822,7 @@ fn eval(a: EvalArgs) -> Result<()> {
     let mut progress = |m: String| bar.set_message(m);
     let results = match &on {
         EvalOn::Sim(rig, name) => aibr::evaluate_rig(
-            rig,
+            rig.as_ref(),
             name,
             &a.rig,
             &strategies,
