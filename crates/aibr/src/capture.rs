@@ -477,6 +477,33 @@ fn splits(pans: &[Angle], s: &PairScore, pan: Angle) -> bool {
     pan.radians() > lo && pan.radians() < hi
 }
 
+/// The consistency score of every pair of neighbouring views of `session`, from its model at
+/// `grid` voxels along the longest edge: what the active planner ranks. Returns the views' pan
+/// angles (in capture order; the scores index into them) and the scores.
+pub fn pair_scores(session: &Session, grid: usize) -> Result<(Vec<Angle>, Vec<PairScore>)> {
+    let views = session.load_views()?;
+    let (range, _) = session.turntable()?;
+    let params = CaptureParams {
+        grid,
+        ..CaptureParams::default()
+    };
+    let mut timings = StageTimings::default();
+    let mut algorithm = "none";
+    let scores = score_views(
+        &views,
+        &session.volume()?,
+        &params,
+        &range,
+        &mut timings,
+        &mut algorithm,
+    )?;
+    let pans = views
+        .iter()
+        .map(|v| Angle::from_radians(v.record.pan_rad))
+        .collect();
+    Ok((pans, scores))
+}
+
 fn score_views(
     views: &[LoadedView],
     volume: &Aabb,

@@ -46,7 +46,7 @@ pub use aibr_voxel as voxel;
 
 pub use capture::{
     CaptureParams, CaptureReport, Progress, StageTimings, Strategy, capture, estimate_volume,
-    reconstruct, reconstruct_views, render_session, uniform_pans,
+    pair_scores, reconstruct, reconstruct_views, render_session, uniform_pans,
 };
 pub use error::{Error, Result};
 pub use eval::{Checkpoint, EvalParams, EvalRig, StrategyEval, evaluate, evaluate_rig};

@@ -6,6 +6,8 @@ use aibr::camera::Angle;
 use aibr::voxel::{Criterion, PlyOptions, write_ply};
 use aibr::{CaptureParams, Progress, Session, SimRig, Strategy, write_atomic};
 use anyhow::{Context, Result, bail};
+
+mod demo;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -24,6 +26,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The main job: active against uniform capture on the synthetic mirror, written as a
+    /// report folder (plots, renders beside the truth, error maps, pair scores, the model,
+    /// index.html); prints a short table and the report's path.
+    Demo(demo::DemoArgs),
     /// Capture a session: initial uniform views, then one view at a time where the rendering
     /// is estimated worst (or uniformly, as the baseline).
     Capture(CaptureArgs),
@@ -312,6 +318,7 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        Command::Demo(a) => demo::run(a).map(drop),
         Command::Capture(a) => capture(a),
         Command::Reconstruct(a) => reconstruct(a),
         Command::Render(a) => render(a),

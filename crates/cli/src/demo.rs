@@ -1,0 +1,459 @@
+//! `aibr demo`: active against uniform capture on a synthetic scene, as a report folder with
+//! an `index.html`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use aibr::camera::Angle;
+use aibr::voxel::{Criterion, PlyOptions, write_ply};
+use aibr::{CaptureParams, Checkpoint, EvalParams, Session, SimRig, Strategy, StrategyEval};
+use anyhow::{Context, Result, bail};
+use image::{Rgb, RgbImage};
+use plotters::prelude::*;
+
+/// Options of `aibr demo`.
+#[derive(clap::Args)]
+pub(crate) struct DemoArgs {
+    /// The catalogue scene.
+    #[arg(long, default_value = "mirror")]
+    scene: String,
+    /// The report folder (its sessions are kept and reused by a rerun).
+    #[arg(long, default_value = "aibr-demo")]
+    out: PathBuf,
+    /// A smaller run (6 -> 12 views, coarse grids) that finishes in seconds: for tests.
+    #[arg(long)]
+    quick: bool,
+}
+
+struct Setup {
+    params: EvalParams,
+    model_grid: usize,
+}
+
+fn setup(quick: bool) -> Setup {
+    if quick {
+        Setup {
+            params: EvalParams {
+                capture: CaptureParams {
+                    initial: 6,
+                    max: 12,
+                    grid: 40,
+                    ..CaptureParams::default()
+                },
+                checkpoints: vec![6, 9, 12],
+                grid: 48,
+                step: Angle::from_degrees(8.0),
+            },
+            model_grid: 48,
+        }
+    } else {
+        Setup {
+            params: EvalParams {
+                capture: CaptureParams::default(),
+                checkpoints: vec![12, 24, 36, 48],
+                grid: 96,
+                step: Angle::from_degrees(5.0),
+            },
+            model_grid: 96,
+        }
+    }
+}
+
+fn svg_error(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::anyhow!("drawing a plot: {e}")
+}
+
+const ACTIVE: RGBColor = RGBColor(214, 39, 40);
+const UNIFORM: RGBColor = RGBColor(31, 119, 180);
+
+fn colour(s: Strategy) -> RGBColor {
+    match s {
+        Strategy::Active => ACTIVE,
+        Strategy::Uniform => UNIFORM,
+    }
+}
+
+/// Capture positions of both strategies at the budget, on two circles (the paper's figure 7).
+fn polar_plot(results: &[StrategyEval], range: (f64, f64)) -> Result<String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (520, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(svg_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "capture positions (pan angle; outer: active, inner: uniform)",
+                ("sans-serif", 15),
+            )
+            .margin(10)
+            .build_cartesian_2d(-1.25f64..1.25f64, -1.25f64..1.25f64)
+            .map_err(svg_error)?;
+        // The usable pan range, and every 30 degrees.
+        let arc: Vec<(f64, f64)> = (0..=200)
+            .map(|k| {
+                let a = range.0 + (range.1 - range.0) * k as f64 / 200.0;
+                (a.to_radians().cos() * 1.12, a.to_radians().sin() * 1.12)
+            })
+            .collect();
+        chart
+            .draw_series(LineSeries::new(arc, BLACK.mix(0.4)))
+            .map_err(svg_error)?;
+        for deg in (-150..=180).step_by(30) {
+            let a = (deg as f64).to_radians();
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("{deg}°"),
+                    (a.cos() * 1.19 - 0.05, a.sin() * 1.19 + 0.03),
+                    ("sans-serif", 11),
+                )))
+                .map_err(svg_error)?;
+        }
+        for r in results {
+            let Some(last) = r.checkpoints.last() else {
+                continue;
+            };
+            let radius = match r.strategy {
+                Strategy::Active => 1.0,
+                Strategy::Uniform => 0.8,
+            };
+            let c = colour(r.strategy);
+            chart
+                .draw_series(last.pans.iter().map(|p| {
+                    let a = p.radians();
+                    Circle::new((a.cos() * radius, a.sin() * radius), 4, c.filled())
+                }))
+                .map_err(svg_error)?
+                .label(format!("{} ({} views)", r.strategy.name(), last.views))
+                .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE)
+            .border_style(BLACK)
+            .draw()
+            .map_err(svg_error)?;
+        root.present().map_err(svg_error)?;
+    }
+    Ok(svg)
+}
+
+/// Mean and worst-arc masked PSNR against the number of views.
+fn psnr_plot(results: &[StrategyEval]) -> Result<String> {
+    let all: Vec<&Checkpoint> = results.iter().flat_map(|r| &r.checkpoints).collect();
+    let lo = all
+        .iter()
+        .map(|c| c.worst_arc_psnr.min(c.mean_psnr))
+        .fold(f64::INFINITY, f64::min);
+    let hi = all
+        .iter()
+        .map(|c| c.mean_psnr)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let (x0, x1) = all.iter().fold((usize::MAX, 0), |(a, b), c| {
+        (a.min(c.views), b.max(c.views))
+    });
+    if all.is_empty() || !lo.is_finite() || !hi.is_finite() {
+        bail!("no checkpoints to plot");
+    }
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (640, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(svg_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption("masked PSNR of novel views", ("sans-serif", 16))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(48)
+            .build_cartesian_2d(
+                (x0 as f64 - 1.0)..(x1 as f64 + 1.0),
+                (lo.floor() - 1.0)..(hi.ceil() + 1.0),
+            )
+            .map_err(svg_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("views")
+            .y_desc("PSNR (dB)")
+            .draw()
+            .map_err(svg_error)?;
+        for r in results {
+            let c = colour(r.strategy);
+            let mean: Vec<(f64, f64)> = r
+                .checkpoints
+                .iter()
+                .map(|k| (k.views as f64, k.mean_psnr))
+                .collect();
+            let worst: Vec<(f64, f64)> = r
+                .checkpoints
+                .iter()
+                .map(|k| (k.views as f64, k.worst_arc_psnr))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(mean.clone(), c.stroke_width(2)))
+                .map_err(svg_error)?
+                .label(format!("{}: mean", r.strategy.name()))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2))
+                });
+            chart
+                .draw_series(mean.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                .map_err(svg_error)?;
+            chart
+                .draw_series(DashedLineSeries::new(worst, 5, 4, c.stroke_width(1)))
+                .map_err(svg_error)?
+                .label(format!("{}: worst arc", r.strategy.name()))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE)
+            .border_style(BLACK)
+            .draw()
+            .map_err(svg_error)?;
+        root.present().map_err(svg_error)?;
+    }
+    Ok(svg)
+}
+
+/// The per-pair consistency scores of a session (what the active planner ranked).
+fn scores_plot(pans: &[Angle], scores: &[aibr::consistency::PairScore]) -> Result<String> {
+    let bars: Vec<(f64, f64, f64)> = scores
+        .iter()
+        .filter_map(|s| {
+            let (a, b) = (pans.get(s.a)?.degrees(), pans.get(s.b)?.degrees());
+            Some((a.min(b), a.max(b), s.score))
+        })
+        .collect();
+    let top = bars.iter().map(|b| b.2).fold(1.0, f64::max);
+    let (x0, x1) = bars
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), b| {
+            (l.min(b.0), h.max(b.1))
+        });
+    if bars.is_empty() {
+        bail!("no pair scores to plot");
+    }
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (640, 320)).into_drawing_area();
+        root.fill(&WHITE).map_err(svg_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                "consistency score per arc between neighbouring views (active, final)",
+                ("sans-serif", 15),
+            )
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, 0.0..top * 1.05)
+            .map_err(svg_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("pan angle (degrees)")
+            .y_desc("score (pixels)")
+            .draw()
+            .map_err(svg_error)?;
+        chart
+            .draw_series(
+                bars.iter()
+                    .map(|&(a, b, s)| Rectangle::new([(a, 0.0), (b, s)], ACTIVE.mix(0.6).filled())),
+            )
+            .map_err(svg_error)?;
+        root.present().map_err(svg_error)?;
+    }
+    Ok(svg)
+}
+
+/// |a - b| averaged over the channels, times 4, as a dark-to-bright heat image.
+fn error_map(a: &RgbImage, b: &RgbImage) -> RgbImage {
+    RgbImage::from_fn(a.width(), a.height(), |x, y| {
+        let (p, q) = (a.get_pixel(x, y).0, b.get_pixel(x, y).0);
+        let e = (0..3)
+            .map(|c| (p[c] as i32 - q[c] as i32).abs())
+            .sum::<i32>()
+            / 3;
+        let v = (e * 4).min(255) as u8;
+        Rgb([v, (v as u16 * 3 / 4) as u8, v / 4])
+    })
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<()> {
+    aibr::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
+}
+
+fn png(path: &Path, img: &RgbImage) -> Result<()> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png)?;
+    write(path, &out.into_inner())
+}
+
+/// Runs the demo and writes the report; returns the path of `index.html`.
+pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
+    let start = Instant::now();
+    let rig = SimRig::new(&a.scene).with_context(|| format!("--scene {:?}", a.scene))?;
+    let Setup { params, model_grid } = setup(a.quick);
+    let sessions = a.out.join("sessions");
+    std::fs::create_dir_all(&sessions)
+        .with_context(|| format!("creating {}", sessions.display()))?;
+    let strategies = [Strategy::Active, Strategy::Uniform];
+    let bar = indicatif::ProgressBar::new_spinner();
+    let results = aibr::evaluate(&a.scene, &strategies, &params, &sessions, &mut |m| {
+        bar.set_message(m);
+        bar.tick();
+    })?;
+    bar.set_message("writing the report");
+
+    let range = aibr::Turntable::range(&rig);
+    let range_deg = (range.min().degrees(), range.max().degrees());
+    write(
+        &a.out.join("positions.svg"),
+        polar_plot(&results, range_deg)?.as_bytes(),
+    )?;
+    write(&a.out.join("psnr.svg"), psnr_plot(&results)?.as_bytes())?;
+
+    // The final sessions: the active one, and the uniform one of the same size.
+    let max = params.capture.max;
+    let active = Session::open(&sessions.join(format!("{}-active", a.scene)))?;
+    let uniform = Session::open(&sessions.join(format!("{}-uniform-{max}", a.scene)))?;
+    let (pans, scores) = aibr::pair_scores(&active, params.capture.grid)?;
+    write(
+        &a.out.join("scores.svg"),
+        scores_plot(&pans, &scores)?.as_bytes(),
+    )?;
+
+    let (active_model, _) = aibr::reconstruct(&active, model_grid, Criterion::default())?;
+    let (uniform_model, _) = aibr::reconstruct(&uniform, model_grid, Criterion::default())?;
+    let mut ply = Vec::new();
+    write_ply(
+        &active_model.model,
+        &mut ply,
+        &PlyOptions {
+            cubes: false,
+            binary: true,
+        },
+    )?;
+    write(&a.out.join("model.ply"), &ply)?;
+
+    // Renders at the middle of the active capture's worst arc and of the uniform one's.
+    let calibration = rig.calibration()?;
+    let mut renders = Vec::new();
+    for r in &results {
+        let Some(last) = r.checkpoints.last() else {
+            continue;
+        };
+        let mid =
+            Angle::from_radians(0.5 * (last.worst_arc.0.radians() + last.worst_arc.1.radians()));
+        let label = format!("middle of the {} capture's worst arc", r.strategy.name());
+        renders.push((mid, label));
+    }
+    let mut panels = String::new();
+    for (k, (pan, label)) in renders.iter().enumerate() {
+        let camera = calibration.camera_at(*pan);
+        let truth = rig
+            .scene()
+            .render(&camera, &aibr::scene::RenderOptions::default())?
+            .rgb8();
+        png(&a.out.join(format!("truth-{k}.png")), &truth)?;
+        write!(
+            panels,
+            "<h3>{:.1}° ({label})</h3>\n<div class=\"row\"><figure><img src=\"truth-{k}.png\" alt=\"ground truth\"><figcaption>ground truth</figcaption></figure>\n",
+            pan.degrees()
+        )?;
+        for (name, session, model) in [
+            ("active", &active, &active_model.model),
+            ("uniform", &uniform, &uniform_model.model),
+        ] {
+            let view = aibr::render_session(session, model, *pan)?;
+            png(&a.out.join(format!("{name}-{k}.png")), &view.rgb)?;
+            png(
+                &a.out.join(format!("{name}-{k}-error.png")),
+                &error_map(&truth, &view.rgb),
+            )?;
+            write!(
+                panels,
+                "<figure><img src=\"{name}-{k}.png\" alt=\"{name} render\"><figcaption>{name} ({max} views)</figcaption></figure>\n<figure><img src=\"{name}-{k}-error.png\" alt=\"{name} error\"><figcaption>{name}: |error| x4</figcaption></figure>\n"
+            )?;
+        }
+        panels.push_str("</div>\n");
+    }
+
+    let mut table = String::from(
+        "<table><tr><th>strategy</th><th>views</th><th>mean PSNR (dB)</th><th>mean SSIM</th><th>worst arc (dB)</th><th>worst arc (degrees)</th></tr>\n",
+    );
+    for r in &results {
+        for c in &r.checkpoints {
+            writeln!(
+                table,
+                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.3}</td><td>{:.2}</td><td>{:.1} to {:.1}</td></tr>",
+                r.strategy.name(),
+                c.views,
+                c.mean_psnr,
+                c.mean_ssim,
+                c.worst_arc_psnr,
+                c.worst_arc.0.degrees(),
+                c.worst_arc.1.degrees()
+            )?;
+        }
+    }
+    table.push_str("</table>\n");
+    let elapsed = start.elapsed().as_secs_f64();
+    let html = format!(
+        r#"<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>aibr demo: {scene}</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}} .row{{display:flex;flex-wrap:wrap;gap:8px}} figure{{margin:0}} img{{max-width:200px}} .plots img{{max-width:100%}} table{{border-collapse:collapse}} td,th{{border:1px solid #aaa;padding:3px 8px;text-align:right}}</style></head>
+<body>
+<h1>Active against uniform capture: <code>{scene}</code></h1>
+<p>{initial} uniform views first, then one view at a time up to {max}: <b>active</b> splits the
+arc the consistency estimate ranks worst, <b>uniform</b> spreads every view evenly. Each
+checkpoint renders every uncaptured pan angle (every {step:.0}°) from a {grid}<sup>3</sup> model
+and compares it with the ground truth inside the object mask. Made by <code>aibr demo</code> in
+{elapsed:.0} s.</p>
+<h2>Results</h2>
+{table}
+<div class="plots"><h2>Capture positions</h2><img src="positions.svg" alt="capture positions">
+<h2>PSNR against views</h2><img src="psnr.svg" alt="PSNR against views">
+<h2>Consistency scores</h2><img src="scores.svg" alt="consistency scores per pair"></div>
+<h2>Novel views</h2>
+{panels}
+<h2>Files</h2>
+<ul><li><a href="model.ply">model.ply</a>: the active session's voxel model ({max} views)</li>
+<li><a href="sessions/{scene}-active/session.json">the active session</a></li>
+<li><a href="sessions/{scene}-uniform-{max}/session.json">the uniform session</a></li></ul>
+<script>
+// Marks whether every image loaded (read by the report's browser test).
+window.addEventListener('load', () => {{
+  const imgs = [...document.images];
+  const ok = imgs.filter(i => i.complete && i.naturalWidth > 0).length;
+  document.body.dataset.images = ok + '/' + imgs.length;
+}});
+</script>
+</body></html>
+"#,
+        scene = a.scene,
+        initial = params.capture.initial,
+        step = params.step.degrees(),
+        grid = params.grid,
+    );
+    let index = a.out.join("index.html");
+    write(&index, html.as_bytes())?;
+    bar.finish_and_clear();
+
+    println!(
+        "{:<8} {:>5} {:>10} {:>7} {:>15}",
+        "strategy", "views", "PSNR (dB)", "SSIM", "worst arc (dB)"
+    );
+    for r in &results {
+        for c in &r.checkpoints {
+            println!(
+                "{:<8} {:>5} {:>10.2} {:>7.3} {:>15.2}",
+                r.strategy.name(),
+                c.views,
+                c.mean_psnr,
+                c.mean_ssim,
+                c.worst_arc_psnr
+            );
+        }
+    }
+    println!("report: {} ({elapsed:.0} s)", index.display());
+    Ok(index)
+}

@@ -1,0 +1,115 @@
+//! `aibr demo` and its report, checked in a real headless browser (Debian's chromium; CI
+//! installs it, elsewhere the browser part is skipped with a note when it is missing).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn chromium() -> Option<PathBuf> {
+    ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
+        .iter()
+        .map(PathBuf::from)
+        .find(|p| p.exists())
+}
+
+fn headless(profile: &Path) -> Command {
+    let mut c = Command::new(chromium().unwrap_or_default());
+    c.args([
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+    ])
+    .arg(format!("--user-data-dir={}", profile.display()));
+    c
+}
+
+/// The values of `attr="..."` in `html`.
+fn attributes(html: &str, attr: &str) -> Vec<String> {
+    let key = format!("{attr}=\"");
+    html.match_indices(&key)
+        .filter_map(|(i, _)| {
+            let rest = &html[i + key.len()..];
+            rest.find('"').map(|end| rest[..end].to_owned())
+        })
+        .collect()
+}
+
+#[test]
+fn the_demo_report_loads_in_a_browser() -> TestResult {
+    let out = std::env::temp_dir().join(format!("aibr-demo-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let run = Command::new(env!("CARGO_BIN_EXE_aibr"))
+        .args(["demo", "--quick", "--out"])
+        .arg(&out)
+        .output()?;
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    let index = out.join("index.html");
+    assert!(stdout.contains(&*index.to_string_lossy()), "{stdout}");
+    assert!(
+        stdout.contains("active") && stdout.contains("uniform"),
+        "{stdout}"
+    );
+
+    // Every image and link of the page is a file of the report, and none is empty.
+    let html = std::fs::read_to_string(&index)?;
+    let srcs = attributes(&html, "src");
+    let hrefs = attributes(&html, "href");
+    assert!(srcs.len() >= 8, "{srcs:?}");
+    for f in srcs.iter().chain(&hrefs) {
+        let len = std::fs::metadata(out.join(f))?.len();
+        assert!(len > 100, "{f}: {len} bytes");
+    }
+
+    let Some(_) = chromium() else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must install chromium (Debian package chromium) for this test"
+        );
+        eprintln!("SKIP: no chromium; the report was checked without a browser");
+        return Ok(());
+    };
+    let url = format!("file://{}", index.display());
+    let dom = headless(&out.join("profile-dom"))
+        .args(["--virtual-time-budget=5000", "--dump-dom", &url])
+        .output()?;
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    // The page's script counts the images that loaded with a size.
+    let loaded = attributes(&dom, "data-images");
+    assert_eq!(
+        loaded,
+        vec![format!("{}/{}", srcs.len(), srcs.len())],
+        "{}",
+        &dom[..dom.len().min(400)]
+    );
+
+    // And it is not blank: the screenshot has many colours in it.
+    let shot = out.join("shot.png");
+    let status = headless(&out.join("profile-shot"))
+        .args(["--window-size=1200,2000"])
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(&url)
+        .output()?;
+    assert!(status.status.success() || shot.exists());
+    let img = image::open(&shot)?.to_rgb8();
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(
+        colours.len() > 200,
+        "{} colours: the page looks blank",
+        colours.len()
+    );
+    let _ = std::fs::remove_dir_all(&out);
+    Ok(())
+}
