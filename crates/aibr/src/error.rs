@@ -25,6 +25,14 @@ pub enum Error {
         /// Why.
         reason: String,
     },
+    /// A folder or file is not a usable ring data set (for the replay rig).
+    #[error("{path}: {reason}")]
+    Dataset {
+        /// The folder or file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
     /// A session file is malformed.
     #[error("{path}: {reason}")]
     BadSession {
@@ -50,7 +58,7 @@ pub enum Error {
     SessionExists(PathBuf),
     /// A rig description could not be understood.
     #[error(
-        "unknown rig {0:?}: expected sim:SCENE (scenes: mirror, head, chair, lambertian), or a turntable ptu:PATH"
+        "unknown rig {0:?}: expected sim:SCENE (scenes: mirror, head, chair, lambertian), replay:DIR (a ring data set), or a turntable ptu:PATH"
     )]
     UnknownRig(String),
     /// A parameter is out of its domain.

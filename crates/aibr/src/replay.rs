@@ -93,7 +93,7 @@ impl ReplayRig {
             .map_err(io(dir))?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .find(|p| p.to_string_lossy().ends_with("_par.txt"))
-            .ok_or_else(|| Error::NotASession {
+            .ok_or_else(|| Error::Dataset {
                 path: dir.to_owned(),
                 reason: "no *_par.txt camera file: a replay rig needs a Middlebury-style ring \
                          folder"
@@ -123,7 +123,7 @@ impl ReplayRig {
                 mask,
             });
         }
-        let first = views.first().ok_or_else(|| Error::NotASession {
+        let first = views.first().ok_or_else(|| Error::Dataset {
             path: par.clone(),
             reason: "the camera file lists no views".into(),
         })?;
@@ -148,13 +148,13 @@ impl ReplayRig {
         }
         let views = kept;
         let Some(first) = views.first() else {
-            return Err(Error::BadSession {
+            return Err(Error::Dataset {
                 path: par,
                 reason: "no view fits a turntable motion".into(),
             });
         };
         if views.iter().any(|v| v.camera.size != first.camera.size) {
-            return Err(Error::BadSession {
+            return Err(Error::Dataset {
                 path: par,
                 reason: "the images are not all the same size".into(),
             });

@@ -331,9 +331,9 @@ impl PtyServer {
         })?;
         let path = serialport::SerialPort::name(&slave).unwrap_or_default();
         if path.is_empty() {
-            return Err(Error::OutOfSync(
-                "the pseudo-terminal has no device path".into(),
-            ));
+            return Err(Error::Io(io::Error::other(
+                "the new pseudo-terminal has no device path",
+            )));
         }
         Ok(PtyServer {
             master,
