@@ -6,8 +6,12 @@
 //! budget; novel views are rendered by depth-driven interpolation of the captured rays.
 //!
 //! This crate composes the others (re-exported below): the rig traits ([`Turntable`],
-//! [`FrameSource`]) with a [`Calibration`] mapping the reached angle to a camera, the synthetic
-//! rig [`SimRig`], the loop [`capture()`](fn@capture), and [`Session`]s on disk.
+//! [`FrameSource`]) with a [`Calibration`] mapping the reached angle to a camera; the rigs:
+//! the synthetic [`SimRig`], a real ring data set replayed ([`ReplayRig`]), and
+//! [`Rig`]`{ turntable, camera }` joining a [`PtuTurntable`] (the PTU-46 driver, [`ptu`]) to
+//! a [`SceneCamera`] or, with the `v4l` feature, a webcam (`V4lCamera`); the loop
+//! [`capture()`](fn@capture); [`Session`]s on disk; and the comparison of strategies against
+//! the truth ([`evaluate`], [`evaluate_rig`]).
 //!
 //! ```no_run
 //! use aibr::{CaptureParams, SimRig, capture, new_session};
