@@ -698,13 +698,21 @@ impl<P: Read + Write> Ptu<P> {
             if Instant::now() >= deadline {
                 return Ok(None);
             }
-            match self.port.read(&mut buf) {
-                Ok(0) => return Err(Error::Disconnected),
-                Ok(n) => self.parser.push(&buf[..n]),
-                Err(e) if is_wait(&e) => {}
-                Err(e) if e.kind() == io::ErrorKind::BrokenPipe => return Err(Error::Disconnected),
-                Err(e) => return Err(e.into()),
+            if let Some(n) = self.read_some(&mut buf)? {
+                self.parser.push(&buf[..n]);
             }
+        }
+    }
+
+    /// One read of the port: `Some(bytes read)`, `None` if its timeout passed with nothing;
+    /// end of file and a broken pipe are a disconnection.
+    fn read_some(&mut self, buf: &mut [u8]) -> Result<Option<usize>> {
+        match self.port.read(buf) {
+            Ok(0) => Err(Error::Disconnected),
+            Ok(n) => Ok(Some(n)),
+            Err(e) if is_wait(&e) => Ok(None),
+            Err(e) if e.kind() == io::ErrorKind::BrokenPipe => Err(Error::Disconnected),
+            Err(e) => Err(e.into()),
         }
     }
 
@@ -749,12 +757,8 @@ impl<P: Read + Write> Ptu<P> {
                     self.options.drain_cap()
                 )));
             }
-            match self.port.read(&mut buf) {
-                Ok(0) => return Err(Error::Disconnected),
-                Ok(_) => last_byte = Instant::now(),
-                Err(e) if is_wait(&e) => {}
-                Err(e) if e.kind() == io::ErrorKind::BrokenPipe => return Err(Error::Disconnected),
-                Err(e) => return Err(e.into()),
+            if self.read_some(&mut buf)?.is_some() {
+                last_byte = Instant::now();
             }
         }
     }
