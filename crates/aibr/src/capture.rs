@@ -295,9 +295,18 @@ pub fn reconstruct(
     grid: usize,
     criterion: Criterion,
 ) -> Result<(Reconstruction, &'static str)> {
-    let views = session.load_views()?;
-    let masks = masks_of(&views)?;
-    reconstruct_views(&views, &masks, &session.volume()?, grid, criterion)
+    reconstruct_loaded(session, &session.load_views()?, grid, criterion)
+}
+
+/// [`reconstruct`] with the session's views already loaded.
+pub fn reconstruct_loaded(
+    session: &Session,
+    views: &[LoadedView],
+    grid: usize,
+    criterion: Criterion,
+) -> Result<(Reconstruction, &'static str)> {
+    let masks = masks_of(views)?;
+    reconstruct_views(views, &masks, &session.volume()?, grid, criterion)
 }
 
 /// Renders the view at pan angle `pan` from a session and its model.
@@ -306,19 +315,35 @@ pub fn render_session(
     model: &aibr_voxel::VoxelModel,
     pan: Angle,
 ) -> Result<RenderedView> {
+    render_loaded(session, &session.load_views()?, model, pan)
+}
+
+/// [`render_session`] with the session's views already loaded.
+pub fn render_loaded(
+    session: &Session,
+    views: &[LoadedView],
+    model: &aibr_voxel::VoxelModel,
+    pan: Angle,
+) -> Result<RenderedView> {
     let (range, _) = session.turntable()?;
     let pan = range.check(pan)?;
     let calibration = session.calibration()?;
-    let sources = session
-        .load_views()?
-        .into_iter()
+    Ok(renderer_for(views, model)?.render(&calibration.camera_at(pan))?)
+}
+
+/// A renderer over loaded views and their model, for rendering several novel views.
+pub fn renderer_for<'m>(
+    views: &[LoadedView],
+    model: &'m aibr_voxel::VoxelModel,
+) -> Result<Renderer<'m>> {
+    let sources = views
+        .iter()
         .map(|v| SourceView {
-            camera: v.camera,
-            image: v.image,
+            camera: v.camera.clone(),
+            image: v.image.clone(),
         })
         .collect();
-    let renderer = Renderer::new(model, sources, RenderParams::default())?;
-    Ok(renderer.render(&calibration.camera_at(pan))?)
+    Ok(Renderer::new(model, sources, RenderParams::default())?)
 }
 
 /// Runs the capture loop on `rig` into `session` (which may already hold views: the loop
@@ -365,10 +390,11 @@ pub fn capture<R: Turntable + FrameSource>(
         // every `refine_every` captures: restart the count where an uninterrupted run was.
         let extra = session.file().views.len().saturating_sub(params.initial);
         let mut must_refine = true;
+        // Decoded once; each capture adds its own view (not the whole session again).
+        let mut views = session.load_views()?;
         if extra % params.refine_every != 0 {
             // Rebuild the scores the uninterrupted run had at its last refinement.
             let refined_at = params.initial + extra - extra % params.refine_every;
-            let views = session.load_views()?;
             scores = score_views(
                 &views[..refined_at],
                 &volume,
@@ -390,7 +416,7 @@ pub fn capture<R: Turntable + FrameSource>(
         }
         while session.file().views.len() < params.max {
             if must_refine || since_refine >= params.refine_every {
-                let views = session.load_views()?;
+                views.extend(session.load_views_from(views.len())?);
                 scores = score_views(
                     &views,
                     &volume,
@@ -477,11 +503,15 @@ fn splits(pans: &[Angle], s: &PairScore, pan: Angle) -> bool {
     pan.radians() > lo && pan.radians() < hi
 }
 
-/// The consistency score of every pair of neighbouring views of `session`, from its model at
-/// `grid` voxels along the longest edge: what the active planner ranks. Returns the views' pan
-/// angles (in capture order; the scores index into them) and the scores.
-pub fn pair_scores(session: &Session, grid: usize) -> Result<(Vec<Angle>, Vec<PairScore>)> {
-    let views = session.load_views()?;
+/// The consistency score of every pair of neighbouring views of `session` (its loaded
+/// `views`), from their model at `grid` voxels along the longest edge: what the active planner
+/// ranks. Returns the views' pan angles (in capture order; the scores index into them) and the
+/// scores.
+pub fn pair_scores(
+    session: &Session,
+    views: &[LoadedView],
+    grid: usize,
+) -> Result<(Vec<Angle>, Vec<PairScore>)> {
     let (range, _) = session.turntable()?;
     let params = CaptureParams {
         grid,
@@ -490,7 +520,7 @@ pub fn pair_scores(session: &Session, grid: usize) -> Result<(Vec<Angle>, Vec<Pa
     let mut timings = StageTimings::default();
     let mut algorithm = "none";
     let scores = score_views(
-        &views,
+        views,
         &session.volume()?,
         &params,
         &range,

@@ -198,29 +198,26 @@ pub fn evaluate_rig<R: EvalRig>(
     let mut out = Vec::new();
     for &strategy in strategies {
         let mut checkpoints = Vec::new();
-        let mut active: Option<Session> = None;
+        // The active views at n are the first n of one run (decoded once); a uniform set is
+        // its own run.
+        let active = match strategy {
+            Strategy::Active if !params.checkpoints.is_empty() => {
+                let dir = work_dir.join(format!("{name}-active"));
+                let p = CaptureParams {
+                    strategy,
+                    ..params.capture
+                };
+                let session = run(rig, spec, &dir, &p, progress)?;
+                let views = session.load_views()?;
+                Some((session, views))
+            }
+            _ => None,
+        };
         for &n in &params.checkpoints {
-            // The active views at n are the first n of one run; a uniform set is its own run.
-            let session = match strategy {
-                Strategy::Active => {
-                    if active.is_none() {
-                        let dir = work_dir.join(format!("{name}-active"));
-                        active = Some(run(
-                            rig,
-                            spec,
-                            &dir,
-                            &CaptureParams {
-                                strategy,
-                                ..params.capture
-                            },
-                            progress,
-                        )?);
-                    }
-                    active
-                        .clone()
-                        .ok_or(Error::Rig("no active session".into()))?
-                }
-                Strategy::Uniform => {
+            let uniform;
+            let (session, all) = match &active {
+                Some((s, v)) => (s, v),
+                None => {
                     let dir = work_dir.join(format!("{name}-uniform-{n}"));
                     let p = CaptureParams {
                         strategy,
@@ -228,15 +225,18 @@ pub fn evaluate_rig<R: EvalRig>(
                         initial: n.min(params.capture.initial).max(3),
                         ..params.capture
                     };
-                    run(rig, spec, &dir, &p, progress)?
+                    let s = run(rig, spec, &dir, &p, progress)?;
+                    let v = s.load_views()?;
+                    uniform = (s, v);
+                    (&uniform.0, &uniform.1)
                 }
             };
-            let views: Vec<LoadedView> = session.load_views()?.into_iter().take(n).collect();
+            let views = &all[..n.min(all.len())];
             progress(format!(
                 "{} {n} views: rendering novel views",
                 strategy.name()
             ));
-            checkpoints.push(measure(rig, &views, &session, params)?);
+            checkpoints.push(measure(rig, views, session, params)?);
         }
         out.push(StrategyEval {
             strategy,

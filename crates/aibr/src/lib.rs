@@ -50,7 +50,8 @@ pub use aibr_voxel as voxel;
 
 pub use capture::{
     CaptureParams, CaptureReport, Progress, StageTimings, Strategy, capture, estimate_volume,
-    pair_scores, reconstruct, reconstruct_views, render_session, uniform_pans,
+    pair_scores, reconstruct, reconstruct_loaded, reconstruct_views, render_loaded, render_session,
+    renderer_for, uniform_pans,
 };
 pub use error::{Error, Result};
 pub use eval::{Checkpoint, EvalParams, EvalRig, StrategyEval, evaluate, evaluate_rig};

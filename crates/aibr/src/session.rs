@@ -451,11 +451,18 @@ impl Session {
 
     /// Loads every view (checksums checked again, sizes against the calibration).
     pub fn load_views(&self) -> Result<Vec<LoadedView>> {
+        self.load_views_from(0)
+    }
+
+    /// The views from index `first` on (none if `first` is past the last), checked and
+    /// decoded like [`Session::load_views`]: for a loop that already holds the earlier ones.
+    pub fn load_views_from(&self, first: usize) -> Result<Vec<LoadedView>> {
         let calibration = self.calibration()?;
         let size = calibration.camera.size;
         self.file
             .views
             .iter()
+            .skip(first)
             .map(|v| {
                 let decode = |relative: &str, crc: u32| -> Result<image::DynamicImage> {
                     let bytes = self.check(relative, crc)?;

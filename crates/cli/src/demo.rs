@@ -315,14 +315,19 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     let max = params.capture.max;
     let active = Session::open(&sessions.join(format!("{}-active", a.scene)))?;
     let uniform = Session::open(&sessions.join(format!("{}-uniform-{max}", a.scene)))?;
-    let (pans, scores) = aibr::pair_scores(&active, params.capture.grid)?;
+    // Each session decoded once, for its scores, its model and its renders.
+    let active_views = active.load_views()?;
+    let uniform_views = uniform.load_views()?;
+    let (pans, scores) = aibr::pair_scores(&active, &active_views, params.capture.grid)?;
     write(
         &a.out.join("scores.svg"),
         scores_plot(&pans, &scores)?.as_bytes(),
     )?;
 
-    let (active_model, _) = aibr::reconstruct(&active, model_grid, Criterion::default())?;
-    let (uniform_model, _) = aibr::reconstruct(&uniform, model_grid, Criterion::default())?;
+    let (active_model, _) =
+        aibr::reconstruct_loaded(&active, &active_views, model_grid, Criterion::default())?;
+    let (uniform_model, _) =
+        aibr::reconstruct_loaded(&uniform, &uniform_views, model_grid, Criterion::default())?;
     let mut ply = Vec::new();
     write_ply(
         &active_model.model,
@@ -346,6 +351,16 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
         let label = format!("middle of the {} capture's worst arc", r.strategy.name());
         renders.push((mid, label));
     }
+    let renderers = [
+        (
+            "active",
+            aibr::renderer_for(&active_views, &active_model.model)?,
+        ),
+        (
+            "uniform",
+            aibr::renderer_for(&uniform_views, &uniform_model.model)?,
+        ),
+    ];
     let mut panels = String::new();
     for (k, (pan, label)) in renders.iter().enumerate() {
         let camera = calibration.camera_at(*pan);
@@ -359,11 +374,8 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
             "<h3>{:.1}° ({label})</h3>\n<div class=\"row\"><figure><img src=\"truth-{k}.png\" alt=\"ground truth\"><figcaption>ground truth</figcaption></figure>\n",
             pan.degrees()
         )?;
-        for (name, session, model) in [
-            ("active", &active, &active_model.model),
-            ("uniform", &uniform, &uniform_model.model),
-        ] {
-            let view = aibr::render_session(session, model, *pan)?;
+        for (name, renderer) in &renderers {
+            let view = renderer.render(&camera)?;
             png(&a.out.join(format!("{name}-{k}.png")), &view.rgb)?;
             png(
                 &a.out.join(format!("{name}-{k}-error.png")),
@@ -438,22 +450,7 @@ window.addEventListener('load', () => {{
     write(&index, html.as_bytes())?;
     bar.finish_and_clear();
 
-    println!(
-        "{:<8} {:>5} {:>10} {:>7} {:>15}",
-        "strategy", "views", "PSNR (dB)", "SSIM", "worst arc (dB)"
-    );
-    for r in &results {
-        for c in &r.checkpoints {
-            println!(
-                "{:<8} {:>5} {:>10.2} {:>7.3} {:>15.2}",
-                r.strategy.name(),
-                c.views,
-                c.mean_psnr,
-                c.mean_ssim,
-                c.worst_arc_psnr
-            );
-        }
-    }
+    crate::print_eval_table(&results);
     println!("report: {} ({elapsed:.0} s)", index.display());
     Ok(index)
 }

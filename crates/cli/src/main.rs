@@ -361,11 +361,13 @@ fn v4l(command: V4lCommand) -> Result<()> {
 
 #[cfg(not(feature = "v4l"))]
 fn v4l(_command: V4lCommand) -> Result<()> {
-    bail!(
-        "this aibr was built without webcam support; build it with \
-         `cargo build --release -p aibr-cli --features v4l` (needs libclang: apt-get install libclang-dev)"
-    )
+    bail!("{NO_WEBCAM}")
 }
+
+/// What a build without the v4l feature says when asked for a webcam.
+#[cfg(not(feature = "v4l"))]
+const NO_WEBCAM: &str = "this aibr was built without webcam support; build it with \
+     `cargo build --release -p aibr-cli --features v4l` (needs libclang: apt-get install libclang-dev)";
 
 fn open_ptu(port: &str, baud: u32) -> Result<aibr::ptu::SerialPtu> {
     aibr::ptu::SerialPtu::open(port, baud, aibr::ptu::PtuOptions::default())
@@ -608,10 +610,7 @@ fn capture_webcam(a: CaptureArgs, _spec: &str, _port: &str, device: &str) -> Res
     if let Some(path) = &a.calibration {
         read_calibration(path)?;
     }
-    bail!(
-        "--camera v4l:{device}: this aibr was built without webcam support; build it with \
-         `cargo build --release -p aibr-cli --features v4l` (needs libclang: apt-get install libclang-dev)"
-    )
+    bail!("--camera v4l:{device}: {NO_WEBCAM}")
 }
 
 fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
@@ -871,24 +870,29 @@ fn eval(a: EvalArgs) -> Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({"rig": a.rig, "results": json}))?
         );
     } else {
-        println!(
-            "{:<8} {:>5} {:>12} {:>8} {:>16}",
-            "strategy", "views", "PSNR (dB)", "SSIM", "worst arc (dB)"
-        );
-        for r in &results {
-            for c in &r.checkpoints {
-                println!(
-                    "{:<8} {:>5} {:>12.2} {:>8.3} {:>16.2}",
-                    r.strategy.name(),
-                    c.views,
-                    c.mean_psnr,
-                    c.mean_ssim,
-                    c.worst_arc_psnr
-                );
-            }
-        }
+        print_eval_table(&results);
     }
     Ok(())
+}
+
+/// The short table of an evaluation: one line per strategy and checkpoint.
+fn print_eval_table(results: &[aibr::StrategyEval]) {
+    println!(
+        "{:<8} {:>5} {:>12} {:>8} {:>16}",
+        "strategy", "views", "PSNR (dB)", "SSIM", "worst arc (dB)"
+    );
+    for r in results {
+        for c in &r.checkpoints {
+            println!(
+                "{:<8} {:>5} {:>12.2} {:>8.3} {:>16.2}",
+                r.strategy.name(),
+                c.views,
+                c.mean_psnr,
+                c.mean_ssim,
+                c.worst_arc_psnr
+            );
+        }
+    }
 }
 
 fn criterion(c: CriterionArg) -> Criterion {
@@ -939,8 +943,10 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
 
 fn render(a: RenderArgs) -> Result<()> {
     let session = Session::open(&a.session)?;
-    let (rec, _) = aibr::reconstruct(&session, a.grid, Criterion::angular())?;
-    let view = aibr::render_session(&session, &rec.model, Angle::from_degrees(a.pan))?;
+    // Decoded once, for both the model and the renderer.
+    let views = session.load_views()?;
+    let (rec, _) = aibr::reconstruct_loaded(&session, &views, a.grid, Criterion::angular())?;
+    let view = aibr::render_loaded(&session, &views, &rec.model, Angle::from_degrees(a.pan))?;
     png(&a.output, &view.rgb)?;
     if let Some(d) = &a.depth {
         exr(d, &view.depth)?;
