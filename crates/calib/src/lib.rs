@@ -1,0 +1,18 @@
+//! Camera and turntable calibration from checkerboards.
+
+pub mod board;
+pub mod detect;
+pub mod error;
+mod plane;
+pub mod subpix;
+
+pub use board::{BoardSpec, PatternSize};
+pub use detect::{BoardDetection, DetectorParams, detect_board};
+pub use error::{Error, Rejection, Result};
+pub use subpix::SubPixParams;
+mod bundle;
+mod geometry;
+pub mod intrinsic;
+pub use intrinsic::{
+    IntrinsicCalibration, IntrinsicOptions, ParameterStd, ViewResult, calibrate_intrinsics,
+};
