@@ -455,19 +455,25 @@ fn grow_grid(
     seed: usize,
     params: &DetectorParams,
 ) -> Option<Grid> {
-    // The two lattice directions: the nearest saddle, and the nearest one not along it.
+    // The two lattice directions: neighbours whose opposite neighbour is there too (so the
+    // seed is an inner corner), the nearest one and the nearest one not along it.
     let near = index.k_nearest(saddles, seed, 200.0, 8);
     let s = saddles[seed].position;
-    let first = *near.first()?;
-    let a = saddles[first].position - s;
-    let b = near[1..]
+    let tol = params.grid_tolerance;
+    let axes: Vec<Vector2<f64>> = near
         .iter()
         .map(|&i| saddles[i].position - s)
-        .find(|v| {
-            let cos = a.dot(v) / (a.norm() * v.norm());
-            cos.abs() < 0.8
-        })?;
-    if b.norm() > 2.0 * a.norm() {
+        .filter(|v| {
+            index
+                .nearest(saddles, s - v, tol * v.norm())
+                .is_some_and(|j| j != seed)
+        })
+        .collect();
+    let a = *axes.first()?;
+    let b = *axes[1..]
+        .iter()
+        .find(|v| (a.dot(v) / (a.norm() * v.norm())).abs() < 0.8)?;
+    if b.norm() > 2.0 * a.norm() || a.norm() > 2.0 * b.norm() {
         return None;
     }
     let mut grid = Grid {
@@ -475,7 +481,6 @@ fn grow_grid(
     };
     let mut used = vec![false; saddles.len()];
     used[seed] = true;
-    let tol = params.grid_tolerance;
     let try_cell = |grid: &mut Grid,
                     used: &mut Vec<bool>,
                     cell: (i32, i32),

@@ -155,7 +155,7 @@ pub fn calibrate_intrinsics(
     let k = zhang(&homographies, size, options)
         .or_else(|| focal_only(&homographies, size))
         .ok_or_else(|| {
-            Error::Degenerate("no focal length fits the views; are the boards tilted?".into())
+            Error::Degenerate("no focal length fits the views: the boards are probably all parallel or nearly so; tilt the board differently between views".into())
         })?;
     let k_inv = k
         .try_inverse()

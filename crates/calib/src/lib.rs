@@ -16,3 +16,7 @@ pub mod intrinsic;
 pub use intrinsic::{
     IntrinsicCalibration, IntrinsicOptions, ParameterStd, ViewResult, calibrate_intrinsics,
 };
+pub mod turntable;
+pub use turntable::{
+    LeftOut, PanPose, PanView, TurntableCalibration, calibrate_turntable, estimate_board_pose,
+};

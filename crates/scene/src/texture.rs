@@ -41,6 +41,27 @@ pub enum Texture {
         /// Edge of a cube, metres.
         square_m: f64,
     },
+    /// A printed calibration checkerboard in the XY plane (the same at every height):
+    /// `cols x rows` squares of `square_m` metres from `origin_xy` (the corner of the squared
+    /// area with the smallest x and y) on `light` paper. The square at `origin_xy` is light;
+    /// edges are anti-aliased over `edge_m` metres, as a camera pixel would blur them, and
+    /// corners stay sharp crossings (unlike [`Texture::Checker`]).
+    Board {
+        /// Colour of the dark squares.
+        dark: Colour,
+        /// Colour of the light squares and the paper around them.
+        light: Colour,
+        /// Edge of a square, metres.
+        square_m: f64,
+        /// Squares along x.
+        cols: u32,
+        /// Squares along y.
+        rows: u32,
+        /// Corner of the squared area with the smallest x and y, metres.
+        origin_xy: [f64; 2],
+        /// Width of the anti-aliased transition at an edge, metres.
+        edge_m: f64,
+    },
     /// Another texture with fine multiplicative grain: the colour is scaled by
     /// `1 + amplitude (n - 1/2)` with `n` two-octave noise of `feature_m` metres. Real
     /// surfaces carry detail at every scale; grain gives colour consistency something to
@@ -108,6 +129,29 @@ impl Texture {
                 let c = p.coords * (std::f64::consts::PI / *square_m);
                 let v = (c.x.sin() * c.y.sin() * c.z.sin() * 6.0).tanh() as f32;
                 b + (a - b) * (0.5 + 0.5 * v)
+            }
+            Texture::Board {
+                dark,
+                light,
+                square_m,
+                cols,
+                rows,
+                origin_xy,
+                edge_m,
+            } => {
+                let u = (p.x - origin_xy[0]) / square_m;
+                let v = (p.y - origin_xy[1]) / square_m;
+                let e = (edge_m / square_m).clamp(1e-6, 0.5);
+                // +1 in even squares, -1 in odd ones, a linear ramp of width e across edges.
+                let parity = |t: f64| {
+                    ((std::f64::consts::PI * t).sin() / (0.5 * std::f64::consts::PI * e).sin())
+                        .clamp(-1.0, 1.0)
+                };
+                // 1 inside the squared area, 0 on the paper, the same ramp at the outline.
+                let inside = |t: f64, n: u32| ((t.min(n as f64 - t)) / e + 0.5).clamp(0.0, 1.0);
+                let blend = inside(u, *cols) * inside(v, *rows);
+                let value = (blend * parity(u) * parity(v) + (1.0 - blend)) as f32;
+                dark + (light - dark) * (0.5 + 0.5 * value)
             }
             Texture::Patchwork {
                 palette,
