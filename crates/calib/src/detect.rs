@@ -110,21 +110,6 @@ pub fn detect_board(
                 corners,
             });
         }
-        if std::env::var_os("AIBR_CALIB_DEBUG").is_some() {
-            let mut v: Vec<_> = grid
-                .cells
-                .iter()
-                .map(|(k, &i)| (*k, saddles[i].position))
-                .collect();
-            v.sort_by_key(|(k, _)| *k);
-            eprintln!(
-                "seed {seed}: {} cells {:?}",
-                grid.cells.len(),
-                v.iter()
-                    .map(|(k, p)| format!("{k:?}:{:.0},{:.0}", p.x, p.y))
-                    .collect::<Vec<_>>()
-            );
-        }
         if best
             .as_ref()
             .is_none_or(|b| grid.cells.len() > b.cells.len())
