@@ -340,6 +340,9 @@ impl Buckets {
     }
 }
 
+/// A cell on a window's outer edge and its inward neighbour.
+type EdgeCell = ((i32, i32), (i32, i32));
+
 /// A grid of saddles indexed by integer lattice coordinates.
 struct Grid {
     cells: HashMap<(i32, i32), usize>,
@@ -389,7 +392,7 @@ fn board_window(
                     continue;
                 }
                 // Per side: the outer edge's corners and their inward neighbours.
-                let sides: [Vec<((i32, i32), (i32, i32))>; 4] = [
+                let sides: [Vec<EdgeCell>; 4] = [
                     (wx..wx + w).map(|x| ((x, wy), (x, wy + 1))).collect(),
                     (wx..wx + w)
                         .map(|x| ((x, wy + h - 1), (x, wy + h - 2)))

@@ -20,3 +20,5 @@ pub mod turntable;
 pub use turntable::{
     LeftOut, PanPose, PanView, TurntableCalibration, calibrate_turntable, estimate_board_pose,
 };
+pub mod io;
+pub use io::{CameraFile, CameraJson, Format};

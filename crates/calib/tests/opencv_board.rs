@@ -1,6 +1,9 @@
 //! Detection and calibration on OpenCV's sample chessboard set, against OpenCV's own answers
 //! (`fixtures/calib/opencv_golden.py` made them).
 
+// Test helpers too may stop a test loudly.
+#![allow(clippy::panic)]
+
 use std::path::PathBuf;
 
 use aibr_calib::{BoardSpec, DetectorParams, detect_board};
@@ -210,4 +213,14 @@ fn standard_deviations_and_per_view_errors_match_opencv() {
         );
         assert!(!v.outlier);
     }
+}
+
+#[test]
+fn reads_the_sample_output_of_opencv() {
+    let Some(dir) = set() else { return };
+    let c = aibr_calib::CameraFile::read(&dir.join("left_intrinsics.yml"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((c.image_size.width, c.image_size.height), (640, 480));
+    assert!((c.intrinsics.fx - 535.916).abs() < 1e-3 && (c.intrinsics.cx - 342.283).abs() < 1e-3);
+    assert!((c.distortion.k1 + 0.26637).abs() < 1e-5);
 }

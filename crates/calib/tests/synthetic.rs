@@ -1,6 +1,9 @@
 //! Calibration on boards rendered by aibr-scene at known poses, with lens distortion and
 //! sensor noise: the ground truth is known exactly.
 
+// Test helpers too may stop a test loudly.
+#![allow(clippy::panic)]
+
 use aibr_calib::{
     BoardDetection, BoardSpec, DetectorParams, Error, IntrinsicOptions, PanView, Rejection,
     calibrate_intrinsics, calibrate_turntable, detect_board,
