@@ -40,6 +40,7 @@ pub mod session;
 #[cfg(all(feature = "v4l", target_os = "linux"))]
 mod webcam;
 
+pub use aibr_calib as calib;
 pub use aibr_camera as camera;
 pub use aibr_consistency as consistency;
 pub use aibr_ptu as ptu;

@@ -202,7 +202,38 @@ pub fn calibrate_intrinsics(
         0.0,
     ];
     let solution = problem.solve(start, &poses, options.max_iterations);
+    // Parallel boards leave the focal length free: the solved poses show it directly (the
+    // vanishing-line check above can be fooled by lens distortion), and so does its spread.
+    let spread = max_angle_between_normals(
+        solution
+            .poses
+            .iter()
+            .map(|p| p.rotation * nalgebra::Vector3::z()),
+    );
+    if spread < MIN_TILT_SPREAD_DEG {
+        return Err(Error::Degenerate(format!(
+            "the boards are all nearly parallel (their planes span {spread:.1} degrees, at least {MIN_TILT_SPREAD_DEG} needed): tilt the board differently between views"
+        )));
+    }
+    let (fx, fx_std) = (solution.camera[0], solution.camera_std[0]);
+    if !(fx_std < 0.1 * fx) {
+        return Err(Error::Degenerate(format!(
+            "the views do not determine the focal length (fx = {fx:.1} ± {fx_std:.1} px): tilt the board more, or in more directions"
+        )));
+    }
     result(board, size, solution, options)
+}
+
+/// The largest angle between two of the unit normals, degrees.
+fn max_angle_between_normals(normals: impl Iterator<Item = Vector3<f64>>) -> f64 {
+    let normals: Vec<Vector3<f64>> = normals.collect();
+    let mut spread: f64 = 0.0;
+    for (i, a) in normals.iter().enumerate() {
+        for b in &normals[i + 1..] {
+            spread = spread.max(a.dot(b).abs().min(1.0).acos().to_degrees());
+        }
+    }
+    spread
 }
 
 fn result(
@@ -293,17 +324,12 @@ fn nominal_k(size: ImageSize) -> Matrix3<f64> {
 /// with the nominal camera the angles are rough but enough to tell parallel from tilted.
 fn check_tilt_spread(homographies: &[Matrix3<f64>], size: ImageSize) -> Result<()> {
     let k = nominal_k(size);
-    let normals: Vec<Vector3<f64>> = homographies
-        .iter()
-        .filter_map(|h| h.try_inverse())
-        .map(|hi| (k.transpose() * hi.transpose() * Vector3::z()).normalize())
-        .collect();
-    let mut spread: f64 = 0.0;
-    for (i, a) in normals.iter().enumerate() {
-        for b in &normals[i + 1..] {
-            spread = spread.max(a.dot(b).abs().min(1.0).acos().to_degrees());
-        }
-    }
+    let spread = max_angle_between_normals(
+        homographies
+            .iter()
+            .filter_map(|h| h.try_inverse())
+            .map(|hi| (k.transpose() * hi.transpose() * Vector3::z()).normalize()),
+    );
     if !(spread >= MIN_TILT_SPREAD_DEG) {
         return Err(Error::Degenerate(format!(
             "the boards are all nearly parallel (the planes span about {spread:.1} degrees, at least {MIN_TILT_SPREAD_DEG} needed): tilt the board differently between views"

@@ -7,7 +7,7 @@ mod plane;
 pub mod subpix;
 
 pub use board::{BoardSpec, PatternSize};
-pub use detect::{BoardDetection, DetectorParams, detect_board};
+pub use detect::{BoardDetection, DetectorParams, FileDetection, detect_board, detect_in_files};
 pub use error::{Error, Rejection, Result};
 pub use subpix::SubPixParams;
 mod bundle;

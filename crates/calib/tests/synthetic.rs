@@ -11,10 +11,7 @@ use aibr_calib::{
 use aibr_camera::{
     Angle, Camera, CircularMotion, Distortion, ImageSize, Intrinsics, PanRange, look_at,
 };
-use aibr_scene::{
-    Backdrop, Environment, Light, Material, RenderOptions, Scene, SceneObject, SceneRig, Shape,
-    SkyLight, Texture,
-};
+use aibr_scene::{RenderOptions, Scene, SceneRig};
 use nalgebra::{Isometry3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 const SQUARE: f64 = 0.025;
@@ -34,29 +31,10 @@ fn truth_distortion() -> Distortion {
     }
 }
 
-/// A printed 9x6 board (10x7 squares on white paper) lying on the turntable plane
-/// z = SQUARE / 2, centred near the axis, and its board frame.
+/// A printed 9x6 board (10x7 squares on white paper) lying on the turntable centred on the
+/// axis (aibr-scene's calibration target), and its board frame.
 fn board_scene() -> (Scene, Isometry3<f64>) {
     let s = SQUARE;
-    let z = 0.5 * s;
-    let board = SceneObject {
-        shape: Shape::Quad {
-            corner: Point3::new(-6.5 * s, -5.5 * s, z),
-            u: Vector3::new(13.0 * s, 0.0, 0.0),
-            v: Vector3::new(0.0, 10.0 * s, 0.0),
-        },
-        material: Material::Matte {
-            texture: Texture::Board {
-                dark: Vector3::new(0.06, 0.06, 0.06),
-                light: Vector3::new(0.9, 0.9, 0.9),
-                square_m: s,
-                cols: 10,
-                rows: 7,
-                origin_xy: [-5.0 * s, -4.0 * s],
-                edge_m: 0.0008,
-            },
-        },
-    };
     let rig = SceneRig {
         intrinsics: truth_intrinsics(),
         distortion: truth_distortion(),
@@ -65,31 +43,13 @@ fn board_scene() -> (Scene, Isometry3<f64>) {
         pan_range: PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0))
             .unwrap_or_else(|e| panic!("{e}")),
     };
-    let scene = Scene::new(
-        "board",
-        vec![board],
-        vec![Light {
-            position_lab: Point3::new(0.3, -0.2, 1.0),
-            colour: Vector3::new(0.3, 0.3, 0.3),
-        }],
-        SkyLight {
-            up: Vector3::new(0.8, 0.8, 0.8),
-            down: Vector3::new(0.2, 0.2, 0.2),
-        },
-        Backdrop::Noise {
-            low: Vector3::new(0.05, 0.05, 0.05),
-            high: Vector3::new(0.3, 0.3, 0.3),
-            feature: 0.03,
-            seed: 7,
-        },
-        Environment::Solid(Vector3::new(0.5, 0.5, 0.5)),
-        rig,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    // The dark corner squares are those at +X, so corner 0 is at (4 s, -3 s) and corner
-    // (c, r) at (4 s - c s, -3 s + r s, z): board x along -X, y along +Y, z down.
+    let scene =
+        aibr_scene::catalogue::checkerboard(10, 7, s, rig).unwrap_or_else(|e| panic!("{e}"));
+    // Squares (i, j) from (-5 s, -3.5 s); the dark corner squares are (9, 0) and (9, 6), so
+    // corner 0 is the inner corner beside (9, 0), at (4 s, -2.5 s), with the board's x
+    // along -X, y along +Y and z down.
     let world_from_board = Isometry3::from_parts(
-        Translation3::new(4.0 * s, -3.0 * s, z),
+        Translation3::new(4.0 * s, -2.5 * s, 0.0),
         UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
             nalgebra::Matrix3::new(-1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -1.0),
         )),

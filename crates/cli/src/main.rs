@@ -7,6 +7,7 @@ use aibr::voxel::{Criterion, PlyOptions, write_ply};
 use aibr::{CaptureParams, Progress, Session, SimRig, Strategy, write_atomic};
 use anyhow::{Context, Result, bail};
 
+mod calibrate;
 mod demo;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -48,6 +49,12 @@ enum Command {
         #[command(subcommand)]
         command: V4lCommand,
     },
+    /// Calibrate the camera (intrinsics, distortion) and the turntable (the camera's motion
+    /// about the pan axis) from checkerboard images.
+    Calibrate {
+        #[command(subcommand)]
+        command: calibrate::CalibrateCommand,
+    },
     /// Synthetic scenes.
     Scene {
         #[command(subcommand)]
@@ -70,7 +77,8 @@ struct CaptureArgs {
     #[arg(long, value_name = "sim:SCENE|v4l:DEVICE", requires = "turntable")]
     camera: Option<String>,
     /// The rig's calibration for a real camera: JSON in the form of session.json's
-    /// "calibration" record (intrinsics, distortion, size, pan axis, pose at pan 0).
+    /// "calibration" record (intrinsics, distortion, size, pan axis, pose at pan 0), as
+    /// `aibr calibrate turntable` writes it.
     #[arg(long, value_name = "FILE")]
     calibration: Option<PathBuf>,
     /// Webcam: fresh frames averaged per view (after the turntable stopped).
@@ -325,6 +333,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Eval(a) => eval(a),
         Command::Ptu(a) => ptu(a),
         Command::V4l { command } => v4l(command),
+        Command::Calibrate { command } => calibrate::run(command),
         Command::Scene { command } => scene(command),
     }
 }

@@ -275,3 +275,62 @@ pub fn lambertian() -> Result<Scene> {
         ],
     )
 }
+
+/// A calibration target: a printed checkerboard of `cols x rows` squares of `square_m`
+/// metres on white paper (a margin of 1.5 squares), lying flat on the turntable (`z = 0`)
+/// and centred on the axis, seen by `rig`. Not one of [`SCENE_NAMES`]: it is for
+/// calibrating, not reconstructing.
+///
+/// The square with the smallest x and y is light, so square `(i, j)` (from that corner,
+/// `i` along +X) is light when `i + j` is even. Its inner corners lie at
+/// `x = (i - cols / 2) square_m`, `y = (j - rows / 2) square_m` for `i` in `1..cols`, `j`
+/// in `1..rows`.
+pub fn checkerboard(cols: u32, rows: u32, square_m: f64, rig: SceneRig) -> Result<Scene> {
+    if cols < 3 || rows < 3 || !(square_m > 0.0 && square_m.is_finite()) {
+        return Err(Error::InvalidParameter {
+            name: "checkerboard",
+            value: square_m,
+            reason: "needs at least 3x3 squares of a positive size",
+        });
+    }
+    let (w, h) = (cols as f64 * square_m, rows as f64 * square_m);
+    let margin = 1.5 * square_m;
+    let white = Colour::new(0.9, 0.9, 0.9);
+    let board = SceneObject {
+        shape: Shape::Quad {
+            corner: Point3::new(-0.5 * w - margin, -0.5 * h - margin, 0.0),
+            u: Vector3::new(w + 2.0 * margin, 0.0, 0.0),
+            v: Vector3::new(0.0, h + 2.0 * margin, 0.0),
+        },
+        material: matte(Texture::Board {
+            dark: Colour::new(0.06, 0.06, 0.06),
+            light: white,
+            square_m,
+            cols,
+            rows,
+            origin_xy: [-0.5 * w, -0.5 * h],
+            // About a pixel at half a metre for a webcam.
+            edge_m: 0.0008,
+        }),
+    };
+    Scene::new(
+        "checkerboard",
+        vec![board],
+        vec![Light {
+            position_lab: Point3::new(0.3, -0.2, 1.0),
+            colour: Colour::new(0.3, 0.3, 0.3),
+        }],
+        SkyLight {
+            up: Colour::new(0.8, 0.8, 0.8),
+            down: Colour::new(0.2, 0.2, 0.2),
+        },
+        Backdrop::Noise {
+            low: Colour::new(0.05, 0.05, 0.05),
+            high: Colour::new(0.3, 0.3, 0.3),
+            feature: 0.03,
+            seed: 7,
+        },
+        Environment::Solid(Colour::new(0.5, 0.5, 0.5)),
+        rig,
+    )
+}
