@@ -113,13 +113,18 @@ pub(crate) fn run(command: CalibrateCommand) -> Result<()> {
     }
 }
 
-/// Detects the board in every image; returns the detections with their images, and the
-/// images rejected with the reason. Unreadable files are errors.
+/// The images whose board was found, with their detections.
+type Found = Vec<(PathBuf, BoardDetection)>;
+/// The images rejected, with the reason.
+type Rejected = Vec<(PathBuf, String)>;
+
+/// Detects the board in every image. Unreadable files are errors; so are images of
+/// different sizes.
 fn detect_all(
     paths: &[PathBuf],
     board: &BoardSpec,
     params: &DetectorParams,
-) -> Result<(Vec<(PathBuf, BoardDetection)>, Vec<(PathBuf, String)>)> {
+) -> Result<(Found, Rejected)> {
     let mut used = Vec::new();
     let mut rejected = Vec::new();
     for (path, result) in paths.iter().zip(detect_in_files(paths, board, params)) {
