@@ -63,6 +63,22 @@ impl BoardSpec {
         (self.cols + self.rows) % 2 == 1
     }
 
+    /// Checks that `what` (a view, described for the error) holds every inner corner.
+    pub(crate) fn check_complete(
+        &self,
+        corners: usize,
+        what: impl FnOnce() -> String,
+    ) -> Result<()> {
+        if corners == self.corner_count() {
+            return Ok(());
+        }
+        Err(Error::InvalidParameter {
+            name: "detection",
+            value: format!("{} with {corners} corners", what()),
+            reason: "needs all the board's corners",
+        })
+    }
+
     /// The inner corners in the board frame, row by row.
     pub fn object_points(&self) -> Vec<Point3<f64>> {
         (0..self.rows)

@@ -116,6 +116,7 @@ impl Bundle<'_> {
         let m = self.object.len();
         let mut cols = vec![[0.0f64; 2]; (nf + 6) * m];
         let mut res = vec![[0.0f64; 2]; m];
+        let mut plus_projections = vec![Point2::origin(); m];
         let step = |v: f64, scale: f64| 1e-6 * v.abs().max(scale);
         for (vi, (obs, p)) in self.views.iter().zip(poses).enumerate() {
             let project_all =
@@ -139,10 +140,9 @@ impl Bundle<'_> {
                 let (mut plus, mut minus) = (*camera, *camera);
                 plus[ci] += h;
                 minus[ci] -= h;
-                let mut a = vec![Point2::origin(); m];
-                project_all(&plus, p, &mut |k, q| a[k] = q);
+                project_all(&plus, p, &mut |k, q| plus_projections[k] = q);
                 project_all(&minus, p, &mut |k, q| {
-                    let d = (a[k] - q) / (2.0 * h);
+                    let d = (plus_projections[k] - q) / (2.0 * h);
                     cols[j * m + k] = [d.x, d.y];
                 });
             }
@@ -151,10 +151,9 @@ impl Bundle<'_> {
                 let (mut plus, mut minus) = (*p, *p);
                 plus[j] += h;
                 minus[j] -= h;
-                let mut a = vec![Point2::origin(); m];
-                project_all(camera, &plus, &mut |k, q| a[k] = q);
+                project_all(camera, &plus, &mut |k, q| plus_projections[k] = q);
                 project_all(camera, &minus, &mut |k, q| {
-                    let d = (a[k] - q) / (2.0 * h);
+                    let d = (plus_projections[k] - q) / (2.0 * h);
                     cols[(nf + j) * m + k] = [d.x, d.y];
                 });
             }

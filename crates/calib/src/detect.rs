@@ -259,7 +259,6 @@ fn is_chessboard_corner(p: &Plane, c: Point2<f64>, params: &DetectorParams) -> b
 
 /// Saddles bucketed on a coarse grid for nearest-neighbour queries.
 struct Buckets {
-    cell: f64,
     cols: usize,
     rows: usize,
     items: Vec<Vec<usize>>,
@@ -276,12 +275,7 @@ impl Buckets {
             let (cx, cy) = Self::cell_of(s.position, cols, rows);
             items[cy * cols + cx].push(i);
         }
-        Buckets {
-            cell: Self::CELL,
-            cols,
-            rows,
-            items,
-        }
+        Buckets { cols, rows, items }
     }
 
     fn cell_of(p: Point2<f64>, cols: usize, rows: usize) -> (usize, usize) {
@@ -290,51 +284,52 @@ impl Buckets {
         (cx, cy)
     }
 
-    /// The saddle nearest `p` within `radius`, if any.
-    fn nearest(&self, saddles: &[Saddle], p: Point2<f64>, radius: f64) -> Option<usize> {
+    /// Calls `f(index, distance)` for every saddle within `radius` of `p`.
+    fn for_each_within(
+        &self,
+        saddles: &[Saddle],
+        p: Point2<f64>,
+        radius: f64,
+        mut f: impl FnMut(usize, f64),
+    ) {
         if !(p.x.is_finite() && p.y.is_finite() && radius.is_finite()) {
-            return None;
+            return;
         }
-        let reach = (radius / self.cell).ceil() as isize;
+        let reach = (radius / Self::CELL).ceil() as isize;
         let (cx, cy) = Self::cell_of(p, self.cols, self.rows);
-        let mut best: Option<(usize, f64)> = None;
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                let (x, y) = (cx as isize + dx, cy as isize + dy);
-                if x < 0 || y < 0 || x >= self.cols as isize || y >= self.rows as isize {
-                    continue;
-                }
+        for y in (cy as isize - reach).max(0)..=(cy as isize + reach).min(self.rows as isize - 1) {
+            for x in
+                (cx as isize - reach).max(0)..=(cx as isize + reach).min(self.cols as isize - 1)
+            {
                 for &i in &self.items[y as usize * self.cols + x as usize] {
                     let d = (saddles[i].position - p).norm();
-                    if d <= radius && best.is_none_or(|(_, bd)| d < bd) {
-                        best = Some((i, d));
+                    if d <= radius {
+                        f(i, d);
                     }
                 }
             }
         }
+    }
+
+    /// The saddle nearest `p` within `radius`, if any.
+    fn nearest(&self, saddles: &[Saddle], p: Point2<f64>, radius: f64) -> Option<usize> {
+        let mut best: Option<(usize, f64)> = None;
+        self.for_each_within(saddles, p, radius, |i, d| {
+            if best.is_none_or(|(_, bd)| d < bd) {
+                best = Some((i, d));
+            }
+        });
         best.map(|(i, _)| i)
     }
 
-    /// Up to `k` saddles nearest `p` within `radius`, nearest first, excluding `p`'s own.
+    /// Up to `k` saddles nearest saddle `own` within `radius`, nearest first, without it.
     fn k_nearest(&self, saddles: &[Saddle], own: usize, radius: f64, k: usize) -> Vec<usize> {
-        let p = saddles[own].position;
-        let reach = (radius / self.cell).ceil() as isize;
-        let (cx, cy) = Self::cell_of(p, self.cols, self.rows);
         let mut found = Vec::new();
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                let (x, y) = (cx as isize + dx, cy as isize + dy);
-                if x < 0 || y < 0 || x >= self.cols as isize || y >= self.rows as isize {
-                    continue;
-                }
-                for &i in &self.items[y as usize * self.cols + x as usize] {
-                    let d = (saddles[i].position - p).norm();
-                    if i != own && d <= radius {
-                        found.push((i, d));
-                    }
-                }
+        self.for_each_within(saddles, saddles[own].position, radius, |i, d| {
+            if i != own {
+                found.push((i, d));
             }
-        }
+        });
         found.sort_by(|a, b| a.1.total_cmp(&b.1));
         found.into_iter().take(k).map(|(i, _)| i).collect()
     }

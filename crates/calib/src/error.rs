@@ -50,14 +50,12 @@ pub enum Error {
         reason: &'static str,
     },
     /// Fewer usable views than the calibration needs.
-    #[error("too few views: {found} usable, {needed} needed{detail}")]
+    #[error("too few views: {found} usable, {needed} needed")]
     TooFewViews {
         /// Usable views.
         found: usize,
         /// Views needed.
         needed: usize,
-        /// What was rejected, if anything (begins with "; ").
-        detail: String,
     },
     /// The images of one set are not all the same size.
     #[error(

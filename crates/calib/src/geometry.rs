@@ -1,8 +1,7 @@
 //! Plane homographies and board poses.
 
-use nalgebra::{
-    DMatrix, Isometry3, Matrix3, Point2, Rotation3, Translation3, UnitQuaternion, Vector3,
-};
+use aibr_camera::nearest_rotation;
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Point2, Translation3, Vector3};
 
 /// Similarity that moves points to their centroid and scales their mean distance to √2.
 fn normalizer(points: &[Point2<f64>]) -> Matrix3<f64> {
@@ -41,34 +40,23 @@ pub(crate) fn homography(src: &[Point2<f64>], dst: &[Point2<f64>]) -> Option<Mat
         a.row_mut(2 * i + 1)
             .copy_from_slice(&[0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v]);
     }
-    // The null vector of A: the eigenvector of AᵀA with the smallest eigenvalue.
-    let ata = a.transpose() * &a;
-    let eig = ata.symmetric_eigen();
-    let (k, _) = eig
-        .eigenvalues
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.total_cmp(b.1))?;
-    let h = eig.eigenvectors.column(k);
+    let h = null_vector(&a)?;
     let hn = Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
     let h = td.try_inverse()? * hn * ts;
     let scale = h[(2, 2)];
     (scale.abs() > 1e-300 && h.iter().all(|v| v.is_finite())).then(|| h / scale)
 }
 
-/// The rotation nearest a 3x3 matrix (Frobenius sense).
-pub(crate) fn nearest_rotation(m: &Matrix3<f64>) -> Rotation3<f64> {
-    let svd = m.svd(true, true);
-    match (svd.u, svd.v_t) {
-        (Some(u), Some(v_t)) => {
-            let mut d = Matrix3::identity();
-            if (u * v_t).determinant() < 0.0 {
-                d[(2, 2)] = -1.0;
-            }
-            Rotation3::from_matrix_unchecked(u * d * v_t)
-        }
-        _ => Rotation3::identity(),
-    }
+/// The unit vector `x` minimising `|A x|`: the eigenvector of `AᵀA` with the smallest
+/// eigenvalue (the null vector of `A` when it has one).
+pub(crate) fn null_vector(a: &DMatrix<f64>) -> Option<DVector<f64>> {
+    let eig = (a.transpose() * a).symmetric_eigen();
+    let (k, _) = eig
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .min_by(|x, y| x.1.total_cmp(y.1))?;
+    Some(eig.eigenvectors.column(k).into_owned())
 }
 
 /// The pose of a plane (`z = 0` of its frame) from its homography to normalised image
@@ -91,10 +79,7 @@ pub(crate) fn pose_from_homography(m: &Matrix3<f64>) -> Option<Isometry3<f64>> {
     let r2 = m2 * lambda;
     let r = nearest_rotation(&Matrix3::from_columns(&[r1, r2, r1.cross(&r2)]));
     let t = m3 * lambda;
-    Some(Isometry3::from_parts(
-        Translation3::from(t),
-        UnitQuaternion::from_rotation_matrix(&r),
-    ))
+    Some(Isometry3::from_parts(Translation3::from(t), r))
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use crate::board::BoardSpec;
 use crate::bundle::{Bundle, CAMERA_PARAMS, SKEW, Solution};
 use crate::detect::BoardDetection;
 use crate::error::{Error, Result};
-use crate::geometry::{homography, pose_from_homography};
+use crate::geometry::{homography, null_vector, pose_from_homography};
 
 /// What [`calibrate_intrinsics`] estimates and how.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -113,7 +113,6 @@ pub fn calibrate_intrinsics(
         return Err(Error::TooFewViews {
             found: views.len(),
             needed: NEEDED,
-            detail: String::new(),
         });
     }
     let size = views[0].image_size;
@@ -127,13 +126,7 @@ pub fn calibrate_intrinsics(
                 first_height: size.height,
             });
         }
-        if v.corners.len() != board.corner_count() {
-            return Err(Error::InvalidParameter {
-                name: "view",
-                value: format!("view {index} with {} corners", v.corners.len()),
-                reason: "every view needs all the board's corners",
-            });
-        }
+        board.check_complete(v.corners.len(), || format!("view {index}"))?;
     }
     let plane: Vec<Point2<f64>> = board
         .object_points()
@@ -374,14 +367,7 @@ fn zhang(
         let w = a.row(0).norm().max(1e-12);
         a[(2 * homographies.len(), 1)] = w;
     }
-    let ata = a.transpose() * &a;
-    let eig = ata.symmetric_eigen();
-    let (idx, _) = eig
-        .eigenvalues
-        .iter()
-        .enumerate()
-        .min_by(|x, y| x.1.total_cmp(y.1))?;
-    let mut b = eig.eigenvectors.column(idx).into_owned();
+    let mut b = null_vector(&a)?;
     if b[0] < 0.0 {
         b = -b;
     }

@@ -71,13 +71,7 @@ pub fn estimate_board_pose(
     distortion: &Distortion,
     detection: &BoardDetection,
 ) -> Result<(Isometry3<f64>, f64)> {
-    if detection.corners.len() != board.corner_count() {
-        return Err(Error::InvalidParameter {
-            name: "detection",
-            value: format!("{} corners", detection.corners.len()),
-            reason: "needs all the board's corners",
-        });
-    }
+    board.check_complete(detection.corners.len(), || "the detection".into())?;
     let normalized: Vec<Point2<f64>> = detection
         .corners
         .iter()
@@ -144,7 +138,6 @@ pub fn calibrate_turntable(
         return Err(Error::TooFewViews {
             found: views.len(),
             needed: 3,
-            detail: String::new(),
         });
     }
     let poses = views

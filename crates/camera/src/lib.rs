@@ -76,6 +76,6 @@ pub use projection::{DecomposedProjection, compose_projection, decompose_project
 pub use ring::{RingFit, fit_ring};
 pub use turntable::{
     CalibratedPose, CircularFit, CircularMotion, PoseInterpolation, PoseResidual, PoseTable,
-    TurntableAxis, look_at,
+    TurntableAxis, look_at, nearest_rotation,
 };
 pub use undistort::UndistortMap;

@@ -102,8 +102,9 @@ fn rms(values: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { 0.0 } else { (sum / n as f64).sqrt() }
 }
 
-/// Nearest rotation (in the Frobenius sense) to a 3x3 matrix.
-pub(crate) fn nearest_rotation(m: &Matrix3<f64>) -> UnitQuaternion<f64> {
+/// The rotation nearest a 3x3 matrix in the Frobenius sense (by SVD, with the sign fixed so
+/// the result is a proper rotation); the identity if the SVD fails.
+pub fn nearest_rotation(m: &Matrix3<f64>) -> UnitQuaternion<f64> {
     let svd = m.svd(true, true);
     match (svd.u, svd.v_t) {
         (Some(u), Some(v_t)) => {
