@@ -592,33 +592,3 @@ fn mean_around(p: &Plane, c: Point2<f64>, r: isize) -> f32 {
     }
     sum / ((2 * r + 1) * (2 * r + 1)) as f32
 }
-
-/// The outcome of detection in one file: the board, why it was not found, or why the
-/// file could not be read.
-pub type FileDetection = crate::error::Result<Result<BoardDetection, Rejection>>;
-
-/// Reads each image (any format the `image` crate decodes here: PNG, JPEG, PNM), turns it
-/// to grey and detects `board` in it, in parallel; results in input order.
-pub fn detect_in_files(
-    paths: &[std::path::PathBuf],
-    board: &BoardSpec,
-    params: &DetectorParams,
-) -> Vec<FileDetection> {
-    use rayon::prelude::*;
-    paths
-        .par_iter()
-        .map(|path| {
-            let image = image::open(path).map_err(|e| match e {
-                image::ImageError::IoError(source) => crate::error::Error::Io {
-                    path: path.clone(),
-                    source,
-                },
-                other => crate::error::Error::Image {
-                    path: path.clone(),
-                    message: other.to_string(),
-                },
-            })?;
-            Ok(detect_board(&image.to_luma8(), board, params))
-        })
-        .collect()
-}

@@ -6,6 +6,9 @@
 //! known. Other keys are ignored on reading. The JSON has the same content with plain
 //! names (`fx`, `fy`, `cx`, `cy`, `skew`, `distortion` in k1 k2 p1 p2 k3 order); a report
 //! of `aibr calibrate intrinsics --json` is also a valid JSON camera file.
+//!
+//! [`CameraFile::read`] is the reader; writing is left to the caller's I/O edge (the
+//! command line writes atomically with `aibr::write_atomic`), from [`CameraFile::to_text`].
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -232,20 +235,19 @@ impl CameraFile {
         }
     }
 
-    /// Writes a camera file in the format its extension names, through a temporary file
-    /// renamed into place (an existing file is replaced whole or not at all).
-    pub fn write(&self, path: &Path) -> Result<()> {
-        let text = match Format::of(path)? {
+    /// The file's text in `format` (for a writer at the caller's I/O edge; pick the format
+    /// from the file name with [`Format::of`]).
+    pub fn to_text(&self, format: Format) -> Result<String> {
+        Ok(match format {
             Format::Yaml => self.to_opencv_yaml(),
             Format::Json => {
                 serde_json::to_string_pretty(&self.to_json()).map_err(|e| Error::Parse {
-                    source_name: path.display().to_string(),
+                    source_name: "camera JSON".into(),
                     line: 0,
                     message: e.to_string(),
                 })? + "\n"
             }
-        };
-        write_atomically(path, text.as_bytes())
+        })
     }
 }
 
@@ -276,28 +278,6 @@ impl Format {
             }),
         }
     }
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io(e)
-    })
 }
 
 fn checked_size(w: f64, h: f64) -> Option<ImageSize> {
@@ -566,7 +546,7 @@ mod tests {
     }
 
     #[test]
-    fn writing_replaces_whole_files_and_checks_the_extension() -> Result<()> {
+    fn files_round_trip_and_the_extension_names_the_format() -> Result<()> {
         let dir = std::env::temp_dir().join(format!("aibr-calib-io-{}", std::process::id()));
         std::fs::create_dir_all(&dir).map_err(|source| Error::Io {
             path: dir.clone(),
@@ -574,15 +554,19 @@ mod tests {
         })?;
         for name in ["cam.yml", "cam.json"] {
             let path = dir.join(name);
-            sample().write(&path)?;
+            let text = sample().to_text(Format::of(&path)?)?;
+            std::fs::write(&path, text).map_err(|source| Error::Io {
+                path: path.clone(),
+                source,
+            })?;
             assert_eq!(CameraFile::read(&path)?, sample());
         }
         assert!(matches!(
-            sample().write(&dir.join("cam.txt")),
+            Format::of(&dir.join("cam.txt")),
             Err(Error::InvalidParameter { .. })
         ));
         assert!(matches!(
-            sample().write(&dir.join("missing/cam.yml")),
+            CameraFile::read(&dir.join("missing/cam.yml")),
             Err(Error::Io { .. })
         ));
         let _ = std::fs::remove_dir_all(&dir);

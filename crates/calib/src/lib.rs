@@ -4,8 +4,7 @@
 //!   saddle points verified by a ring test, a grid grown over them following perspective,
 //!   the board's window chosen by its alternating outer squares, and sub-pixel refinement as
 //!   OpenCV's `cornerSubPix` ([`SubPixParams`]). Images where the whole board is not found are
-//!   rejected with the reason ([`Rejection`]). [`detect_in_files`] reads and detects in
-//!   parallel.
+//!   rejected with the reason ([`Rejection`]).
 //! - [`calibrate_intrinsics`]: Zhang's closed form, then Levenberg-Marquardt over fx, fy, cx,
 //!   cy (optional skew), k1 k2 p1 p2 k3 (any of them held) and every board pose; RMS and
 //!   per-view errors, standard deviations of every parameter, outlier views flagged; too
@@ -13,7 +12,8 @@
 //! - [`calibrate_turntable`]: the board's pose at each pan position ([`estimate_board_pose`]),
 //!   the circular motion fitted to them with its residuals, the aibr-camera
 //!   [`aibr_camera::PoseTable`], and each position predicted from the others.
-//! - [`CameraFile`]: OpenCV FileStorage YAML and JSON, read and written.
+//! - [`CameraFile`]: OpenCV FileStorage YAML and JSON: parsed, formatted, and read from a
+//!   file (writing, atomically, is left to the caller's I/O edge).
 //!
 //! On OpenCV's 13-image sample set the corners land within 0.007 px of OpenCV's, and the
 //! calibration matches `calibrateCamera` (fx 532.82 vs 532.83 px, RMS 0.1954 px both, the
@@ -73,7 +73,7 @@ pub mod subpix;
 pub mod turntable;
 
 pub use board::{BoardSpec, PatternSize};
-pub use detect::{BoardDetection, DetectorParams, FileDetection, detect_board, detect_in_files};
+pub use detect::{BoardDetection, DetectorParams, detect_board};
 pub use error::{Error, Rejection, Result};
 pub use intrinsic::{
     IntrinsicCalibration, IntrinsicOptions, ParameterStd, ViewResult, calibrate_intrinsics,

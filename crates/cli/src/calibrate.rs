@@ -4,11 +4,13 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use aibr::calib::{
-    BoardDetection, BoardSpec, CameraFile, DetectorParams, IntrinsicOptions, PanView, PatternSize,
-    SubPixParams, calibrate_intrinsics, calibrate_turntable, detect_in_files,
+    BoardDetection, BoardSpec, CameraFile, DetectorParams, Error as CalibError, Format,
+    IntrinsicOptions, PanView, PatternSize, SubPixParams, calibrate_intrinsics,
+    calibrate_turntable, detect_board,
 };
 use aibr::camera::{Angle, Camera, PanRange};
 use anyhow::{Context, Result, bail};
+use rayon::prelude::*;
 use serde_json::json;
 
 #[derive(clap::Subcommand)]
@@ -113,51 +115,55 @@ pub(crate) fn run(command: CalibrateCommand) -> Result<()> {
     }
 }
 
-/// The images whose board was found, with their detections.
-type Found = Vec<(PathBuf, BoardDetection)>;
-/// The images rejected, with the reason.
-type Rejected = Vec<(PathBuf, String)>;
+/// The boards found in a set of images.
+struct Detected {
+    /// Index in the input of each image whose board was found.
+    images: Vec<usize>,
+    /// Their detections, in the same order.
+    detections: Vec<BoardDetection>,
+    /// The images rejected, with the reason.
+    rejected: Vec<(PathBuf, String)>,
+}
 
-/// Detects the board in every image. Unreadable files are errors; so are images of
-/// different sizes.
-fn detect_all(
-    paths: &[PathBuf],
-    board: &BoardSpec,
-    params: &DetectorParams,
-) -> Result<(Found, Rejected)> {
-    let mut used = Vec::new();
-    let mut rejected = Vec::new();
-    for (path, result) in paths.iter().zip(detect_in_files(paths, board, params)) {
+/// Reads every image and detects the board in it, in parallel. Unreadable files are errors;
+/// images without the whole board are rejected with the reason (and said so on stderr).
+fn detect_all(paths: &[PathBuf], board: &BoardSpec, params: &DetectorParams) -> Result<Detected> {
+    let results: Vec<Result<_>> = paths
+        .par_iter()
+        .map(|path| {
+            let image = image::open(path).with_context(|| format!("reading {}", path.display()))?;
+            Ok(detect_board(&image.to_luma8(), board, params))
+        })
+        .collect();
+    let mut found = Detected {
+        images: Vec::new(),
+        detections: Vec::new(),
+        rejected: Vec::new(),
+    };
+    for (index, (path, result)) in paths.iter().zip(results).enumerate() {
         match result? {
-            Ok(d) => used.push((path.clone(), d)),
+            Ok(d) => {
+                found.images.push(index);
+                found.detections.push(d);
+            }
             Err(reason) => {
                 eprintln!("{}: rejected: {reason}", path.display());
-                rejected.push((path.clone(), reason.to_string()));
+                found.rejected.push((path.clone(), reason.to_string()));
             }
         }
     }
-    // One image size per set, named by file.
-    if let Some((first, d0)) = used.first() {
-        if let Some((p, d)) = used.iter().find(|(_, d)| d.image_size != d0.image_size) {
-            bail!(
-                "{} is {}x{} pixels but {} is {}x{}: one calibration needs one image size",
-                p.display(),
-                d.image_size.width,
-                d.image_size.height,
-                first.display(),
-                d0.image_size.width,
-                d0.image_size.height
-            );
-        }
-    }
-    Ok((used, rejected))
+    Ok(found)
 }
 
 fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
     let (board, params) = a.board.spec()?;
-    aibr::calib::Format::of(&a.output)?;
+    Format::of(&a.output)?;
     let t0 = Instant::now();
-    let (used, rejected) = detect_all(&a.images, &board, &params)?;
+    let Detected {
+        images: used,
+        detections,
+        rejected,
+    } = detect_all(&a.images, &board, &params)?;
     let detect_s = t0.elapsed().as_secs_f64();
     if used.len() < 3 {
         bail!(
@@ -175,8 +181,23 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
         ..Default::default()
     };
     let t1 = Instant::now();
-    let detections: Vec<BoardDetection> = used.iter().map(|(_, d)| d.clone()).collect();
-    let cal = calibrate_intrinsics(&board, &detections, &options).context("calibration failed")?;
+    let image = |i: usize| &a.images[used[i]];
+    let cal = match calibrate_intrinsics(&board, &detections, &options) {
+        Ok(cal) => cal,
+        // One image size per set, named by file.
+        Err(CalibError::SizeMismatch {
+            index,
+            width,
+            height,
+            first_width,
+            first_height,
+        }) => bail!(
+            "{} is {width}x{height} pixels but {} is {first_width}x{first_height}: one calibration needs one image size",
+            image(index).display(),
+            image(0).display()
+        ),
+        Err(e) => return Err(e).context("calibration failed"),
+    };
     let calibrate_s = t1.elapsed().as_secs_f64();
     let file = CameraFile {
         image_size: cal.image_size,
@@ -184,7 +205,7 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
         distortion: cal.distortion,
         rms: Some(cal.rms),
     };
-    file.write(&a.output)?;
+    aibr::write_atomic(&a.output, file.to_text(Format::of(&a.output)?)?.as_bytes())?;
     let i = cal.intrinsics;
     let s = cal.std;
     if a.json {
@@ -197,7 +218,7 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
             "std": {"fx": s.fx, "fy": s.fy, "cx": s.cx, "cy": s.cy, "skew": s.skew, "distortion": s.distortion},
             "iterations": cal.iterations,
             "views": cal.views.iter().map(|v| json!({
-                "image": used[v.index].0.display().to_string(),
+                "image": image(v.index).display().to_string(),
                 "rms": v.rms,
                 "outlier": v.outlier,
             })).collect::<Vec<_>>(),
@@ -211,7 +232,7 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
     println!("{:<32} {:>10}", "image", "rms px");
     for v in &cal.views {
         let flag = if v.outlier { "  outlier" } else { "" };
-        println!("{:<32} {:>10.4}{flag}", short(&used[v.index].0), v.rms);
+        println!("{:<32} {:>10.4}{flag}", short(image(v.index)), v.rms);
     }
     for (p, r) in &rejected {
         println!("{:<32} rejected: {r}", short(p));
@@ -304,8 +325,14 @@ fn turntable(a: TurntableArgs) -> Result<()> {
         .map(|v| parse_view(v))
         .collect::<Result<_>>()?;
     let paths: Vec<PathBuf> = views.iter().map(|(p, _)| p.clone()).collect();
-    let (used, rejected) = detect_all(&paths, &board, &params)?;
-    if let Some((p, d)) = used.iter().find(|(_, d)| d.image_size != camera.image_size) {
+    let found = detect_all(&paths, &board, &params)?;
+    let rejected = found.rejected;
+    let used: Vec<&PathBuf> = found.images.iter().map(|&i| &paths[i]).collect();
+    if let Some((p, d)) = used
+        .iter()
+        .zip(&found.detections)
+        .find(|(_, d)| d.image_size != camera.image_size)
+    {
         bail!(
             "{} is {}x{} pixels but the camera in {} was calibrated at {}x{}",
             p.display(),
@@ -316,18 +343,13 @@ fn turntable(a: TurntableArgs) -> Result<()> {
             camera.image_size.height
         );
     }
-    let pan_of = |p: &Path| {
-        views
-            .iter()
-            .find(|(q, _)| q == p)
-            .map(|(_, a)| *a)
-            .unwrap_or(Angle::from_degrees(0.0))
-    };
-    let pan_views: Vec<PanView> = used
+    let pan_views: Vec<PanView> = found
+        .images
         .iter()
-        .map(|(p, d)| PanView {
-            pan: pan_of(p),
-            detection: d.clone(),
+        .zip(found.detections)
+        .map(|(&i, detection)| PanView {
+            pan: views[i].1,
+            detection,
         })
         .collect();
     let range = match &a.range {
@@ -371,11 +393,10 @@ fn turntable(a: TurntableArgs) -> Result<()> {
         format!("{}\n", serde_json::to_string_pretty(&record)?).as_bytes(),
     )
     .with_context(|| format!("writing {}", a.output.display()))?;
-    let centre = |p: &aibr::camera::CircularMotion| p.centre_at_zero();
-    let c0 = centre(&cal.fit.model);
+    let c0 = cal.fit.model.centre_at_zero();
     if a.json {
         let report = json!({
-            "positions": cal.poses.iter().zip(&used).zip(&cal.fit.residuals).map(|((p, (img, _)), r)| json!({
+            "positions": cal.poses.iter().zip(&used).zip(&cal.fit.residuals).map(|((p, img), r)| json!({
                 "image": img.display().to_string(),
                 "pan_deg": p.pan.degrees(),
                 "rms_px": p.rms,
@@ -403,7 +424,7 @@ fn turntable(a: TurntableArgs) -> Result<()> {
         "{:<28} {:>9} {:>9} {:>11} {:>11}",
         "image", "pan deg", "rms px", "circle mm", "left out px"
     );
-    for ((p, (img, _)), r) in cal.poses.iter().zip(&used).zip(&cal.fit.residuals) {
+    for ((p, img), r) in cal.poses.iter().zip(&used).zip(&cal.fit.residuals) {
         let lo = cal
             .left_out
             .iter()

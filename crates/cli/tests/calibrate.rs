@@ -196,13 +196,13 @@ fn turntable_from_rendered_boards() -> TestResult {
     };
     let scene = aibr::scene::catalogue::checkerboard(10, 7, 0.025, rig)?;
     let camera = dir.join("camera.yml");
-    CameraFile {
+    let file = CameraFile {
         image_size: size,
         intrinsics,
         distortion,
         rms: None,
-    }
-    .write(&camera)?;
+    };
+    std::fs::write(&camera, file.to_text(aibr::calib::Format::Yaml)?)?;
     let mut views = Vec::new();
     for (i, deg) in [-150.0, -110.0, -70.0, -30.0, 10.0, 50.0, 90.0, 130.0]
         .iter()
