@@ -4,9 +4,10 @@
 // Test helpers too may stop a test loudly.
 #![allow(clippy::panic)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
-use aibr_calib::{BoardSpec, DetectorParams, detect_board};
+use aibr_calib::{BoardDetection, BoardSpec, DetectorParams, detect_board};
 use serde_json::Value;
 
 fn golden() -> Value {
@@ -20,27 +21,54 @@ fn set() -> Option<PathBuf> {
     aibr_testdata::dataset("opencv-chessboard-9x6")
 }
 
-#[test]
-fn detects_all_13_boards_like_opencv() {
-    let Some(dir) = set() else { return };
-    let g = golden();
-    let board = BoardSpec::new(9, 6, 0.03).unwrap_or_else(|e| panic!("{e}"));
-    let names: Vec<String> = g["images"]
+/// The 13 image names, in the golden file's order.
+fn image_names(g: &Value) -> Vec<String> {
+    g["images"]
         .as_array()
         .map(|a| {
             a.iter()
                 .filter_map(|v| v.as_str().map(String::from))
                 .collect()
         })
-        .unwrap_or_default();
+        .unwrap_or_default()
+}
+
+fn board() -> BoardSpec {
+    BoardSpec::new(9, 6, 0.03).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn grey(dir: &Path, name: &str) -> image::GrayImage {
+    image::open(dir.join(name))
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .to_luma8()
+}
+
+/// The boards of all 13 images, detected once per test process.
+fn views(dir: &Path) -> &'static [BoardDetection] {
+    static VIEWS: OnceLock<Vec<BoardDetection>> = OnceLock::new();
+    VIEWS.get_or_init(|| {
+        image_names(&golden())
+            .iter()
+            .map(|name| {
+                detect_board(&grey(dir, name), &board(), &DetectorParams::default())
+                    .unwrap_or_else(|e| panic!("{name}: {e}"))
+            })
+            .collect()
+    })
+}
+
+#[test]
+fn detects_all_13_boards_like_opencv() {
+    let Some(dir) = set() else { return };
+    let g = golden();
+    let board = board();
+    let names = image_names(&g);
     assert_eq!(names.len(), 13);
     let mut worst = 0.0f64;
     let mut sum2 = 0.0;
     let mut n = 0;
     for name in &names {
-        let img = image::open(dir.join(name))
-            .unwrap_or_else(|e| panic!("{name}: {e}"))
-            .to_luma8();
+        let img = grey(&dir, name);
         let t0 = std::time::Instant::now();
         let det = detect_board(&img, &board, &DetectorParams::default())
             .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -81,27 +109,10 @@ fn detects_all_13_boards_like_opencv() {
 fn calibration_agrees_with_opencv() {
     let Some(dir) = set() else { return };
     let g = golden();
-    let board = BoardSpec::new(9, 6, 0.03).unwrap_or_else(|e| panic!("{e}"));
-    let names: Vec<String> = g["images"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default();
-    let views: Vec<_> = names
-        .iter()
-        .map(|name| {
-            let img = image::open(dir.join(name))
-                .unwrap_or_else(|e| panic!("{name}: {e}"))
-                .to_luma8();
-            detect_board(&img, &board, &DetectorParams::default())
-                .unwrap_or_else(|e| panic!("{name}: {e}"))
-        })
-        .collect();
+    let board = board();
+    let views = views(&dir);
     let t0 = std::time::Instant::now();
-    let cal = aibr_calib::calibrate_intrinsics(&board, &views, &Default::default())
+    let cal = aibr_calib::calibrate_intrinsics(&board, views, &Default::default())
         .unwrap_or_else(|e| panic!("{e}"));
     eprintln!(
         "calibration {:?}, {} iterations",
@@ -160,26 +171,9 @@ fn calibration_agrees_with_opencv() {
 fn standard_deviations_and_per_view_errors_match_opencv() {
     let Some(dir) = set() else { return };
     let g = golden();
-    let board = BoardSpec::new(9, 6, 0.03).unwrap_or_else(|e| panic!("{e}"));
-    let names: Vec<String> = g["images"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default();
-    let views: Vec<_> = names
-        .iter()
-        .map(|name| {
-            let img = image::open(dir.join(name))
-                .unwrap_or_else(|e| panic!("{name}: {e}"))
-                .to_luma8();
-            detect_board(&img, &board, &DetectorParams::default())
-                .unwrap_or_else(|e| panic!("{name}: {e}"))
-        })
-        .collect();
-    let cal = aibr_calib::calibrate_intrinsics(&board, &views, &Default::default())
+    let board = board();
+    let views = views(&dir);
+    let cal = aibr_calib::calibrate_intrinsics(&board, views, &Default::default())
         .unwrap_or_else(|e| panic!("{e}"));
     let o = &g["window_5x5"];
     let theirs: Vec<f64> = o["std_intrinsics"]

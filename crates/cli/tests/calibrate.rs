@@ -1,21 +1,35 @@
 //! `aibr calibrate` end to end: OpenCV's sample set, bad input, and a synthetic turntable.
 
+mod common;
+use common::*;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use aibr::calib::CameraFile;
 use aibr::camera::{Angle, CircularMotion, Distortion, ImageSize, Intrinsics, PanRange};
 use aibr::scene::{RenderOptions, SceneRig};
 
-type TestResult = Result<(), Box<dyn std::error::Error>>;
-
-fn aibr(args: &[&str]) -> std::io::Result<Output> {
-    Command::new(env!("CARGO_BIN_EXE_aibr")).args(args).output()
+fn run(args: &[&str]) -> std::io::Result<Output> {
+    aibr().args(args).output()
 }
 
-fn temp(name: &str) -> std::io::Result<PathBuf> {
-    let dir = std::env::temp_dir().join(format!("aibr-cli-calib-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+/// `aibr calibrate intrinsics --square-mm 30 -o OUTPUT ARGS...` must fail and say `reason`.
+fn refused(output: &str, args: &[&str], reason: &str) -> TestResult {
+    let mut all = vec!["calibrate", "intrinsics", "--square-mm", "30", "-o", output];
+    all.extend_from_slice(args);
+    let o = run(&all)?;
+    assert!(
+        !o.status.success() && text(&o).contains(reason),
+        "{}",
+        text(&o)
+    );
+    Ok(())
+}
+
+/// A fresh, empty folder.
+fn folder(name: &str) -> std::io::Result<PathBuf> {
+    let dir = temp(&format!("calib-{name}"));
     std::fs::create_dir_all(&dir)?;
     Ok(dir)
 }
@@ -33,20 +47,12 @@ fn sample_images() -> Option<Vec<String>> {
     Some(v)
 }
 
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
 #[test]
 fn intrinsics_on_the_opencv_sample_set() -> TestResult {
     let Some(images) = sample_images() else {
         return Ok(());
     };
-    let dir = temp("intrinsics")?;
+    let dir = folder("intrinsics")?;
     // A picture with no board is rejected with its reason; the rest calibrate.
     let blank = dir.join("blank.png");
     image::GrayImage::from_pixel(640, 480, image::Luma([120])).save(&blank)?;
@@ -66,8 +72,8 @@ fn intrinsics_on_the_opencv_sample_set() -> TestResult {
     args.push("--json");
     args.extend(images.iter().map(String::as_str));
     args.push(&blank_s);
-    let o = aibr(&args)?;
-    assert!(o.status.success(), "{}", text(&o));
+    let o = run(&args)?;
+    assert_success(&o);
     let r: serde_json::Value = serde_json::from_slice(&o.stdout)?;
     assert_eq!(r["views"].as_array().map(Vec::len), Some(13));
     assert_eq!(r["rejected"][0]["image"].as_str(), Some(blank_s.as_str()));
@@ -90,94 +96,33 @@ fn bad_sets_are_refused_with_reasons() -> TestResult {
     let Some(images) = sample_images() else {
         return Ok(());
     };
-    let dir = temp("bad")?;
+    let dir = folder("bad")?;
     let out = dir.join("camera.yml").display().to_string();
     // Too few views.
-    let o = aibr(&[
-        "calibrate",
-        "intrinsics",
-        "--square-mm",
-        "30",
-        "-o",
-        &out,
-        &images[0],
-        &images[1],
-    ])?;
-    assert!(!o.status.success());
-    assert!(text(&o).contains("at least 3"), "{}", text(&o));
+    refused(&out, &[&images[0], &images[1]], "at least 3")?;
     // Images of different sizes: the odd one is named.
     let small = dir.join("small.png");
     image::open(&images[2])?
         .resize_exact(320, 240, image::imageops::FilterType::Triangle)
         .save(&small)?;
     let small_s = small.display().to_string();
-    let o = aibr(&[
-        "calibrate",
-        "intrinsics",
-        "--square-mm",
-        "30",
-        "-o",
+    refused(
         &out,
-        &images[0],
-        &images[1],
-        &images[3],
-        &small_s,
-    ])?;
-    assert!(!o.status.success());
-    assert!(text(&o).contains("small.png is 320x240"), "{}", text(&o));
+        &[&images[0], &images[1], &images[3], &small_s],
+        "small.png is 320x240",
+    )?;
     // A missing file, a bad board, a bad output format.
-    let o = aibr(&[
-        "calibrate",
-        "intrinsics",
-        "--square-mm",
-        "30",
-        "-o",
-        &out,
-        "/nonexistent/x.png",
-    ])?;
-    assert!(
-        !o.status.success() && text(&o).contains("/nonexistent/x.png"),
-        "{}",
-        text(&o)
-    );
-    let o = aibr(&[
-        "calibrate",
-        "intrinsics",
-        "--board",
-        "9by6",
-        "--square-mm",
-        "30",
-        "-o",
-        &out,
-        &images[0],
-    ])?;
-    assert!(
-        !o.status.success() && text(&o).contains("9by6"),
-        "{}",
-        text(&o)
-    );
+    refused(&out, &["/nonexistent/x.png"], "/nonexistent/x.png")?;
+    refused(&out, &["--board", "9by6", &images[0]], "9by6")?;
     let txt = dir.join("camera.txt").display().to_string();
-    let o = aibr(&[
-        "calibrate",
-        "intrinsics",
-        "--square-mm",
-        "30",
-        "-o",
-        &txt,
-        &images[0],
-    ])?;
-    assert!(
-        !o.status.success() && text(&o).contains(".yml, .yaml or .json"),
-        "{}",
-        text(&o)
-    );
+    refused(&txt, &[&images[0]], ".yml, .yaml or .json")?;
     assert!(!Path::new(&out).exists(), "nothing is written on failure");
     Ok(())
 }
 
 #[test]
 fn turntable_from_rendered_boards() -> TestResult {
-    let dir = temp("turntable")?;
+    let dir = folder("turntable")?;
     let intrinsics = Intrinsics::new(820.0, 815.0, 331.0, 244.0);
     let distortion = Distortion {
         k1: -0.25,
@@ -238,8 +183,8 @@ fn turntable_from_rendered_boards() -> TestResult {
         "--json",
     ];
     args.extend(views.iter().map(String::as_str));
-    let o = aibr(&args)?;
-    assert!(o.status.success(), "{}", text(&o));
+    let o = run(&args)?;
+    assert_success(&o);
     let r: serde_json::Value = serde_json::from_slice(&o.stdout)?;
     let radius = r["camera_radius_m"].as_f64().unwrap_or(0.0);
     let height = r["camera_height_m"].as_f64().unwrap_or(0.0);
@@ -262,7 +207,7 @@ fn turntable_from_rendered_boards() -> TestResult {
     let calibration = record.calibration()?;
     assert_eq!(calibration.camera.intrinsics, intrinsics);
     // A view given without its angle is refused.
-    let o = aibr(&[
+    let o = run(&[
         "calibrate",
         "turntable",
         "--square-mm",

@@ -1,20 +1,11 @@
 //! The `aibr` binary end to end: capture, kill and resume, bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+mod common;
+use common::*;
+
+use std::path::Path;
+use std::process::Stdio;
 use std::time::{Duration, Instant};
-
-type TestResult = Result<(), Box<dyn std::error::Error>>;
-
-fn aibr() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_aibr"))
-}
-
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("aibr-cli-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
 
 const SMALL: [&str; 8] = [
     "--rig",
@@ -170,11 +161,7 @@ fn reconstruct_and_render_a_session() -> TestResult {
         .arg(&dir)
         .arg("--json")
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
     assert_eq!(summary["views"].as_array().map(|v| v.len()), Some(6));
     assert!(summary["timings_ms"]["capture_ms"].as_f64().is_some());
@@ -184,11 +171,7 @@ fn reconstruct_and_render_a_session() -> TestResult {
         .arg(&dir)
         .args(["--grid", "32", "--json"])
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
     assert_eq!(summary["algorithm"], "voxel coloring");
     assert!(summary["timings_ms"]["coloring_ms"].as_f64().is_some());
@@ -205,11 +188,7 @@ fn reconstruct_and_render_a_session() -> TestResult {
         .arg("--depth")
         .arg(&exr)
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let rendered = image::open(&png)?;
     assert_eq!((rendered.width(), rendered.height()), (640, 480));
     assert!(std::fs::metadata(&exr)?.len() > 1000);
@@ -314,11 +293,7 @@ fn scene_render_writes_image_depth_and_mask() -> TestResult {
         .arg("--mask")
         .arg(dir.join("mask.png"))
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let mask = image::open(dir.join("mask.png"))?.to_luma8();
     assert!(mask.pixels().any(|p| p.0[0] == 255) && mask.pixels().any(|p| p.0[0] == 0));
     let _ = std::fs::remove_dir_all(&dir);
@@ -346,11 +321,7 @@ fn volume_estimated_from_the_initial_views() -> TestResult {
         .arg("--out")
         .arg(&dir)
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let session = aibr::Session::open(&dir)?;
     let estimated = session.volume()?;
     let truth = aibr::scene::catalogue::head()?.object_bounds();
@@ -472,11 +443,7 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
         .arg("--out")
         .arg(&dir)
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
     assert_eq!(summary["stopped_early"], true);
     assert_eq!(summary["views"].as_array().map(|v| v.len()), Some(4));
@@ -519,11 +486,7 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         ])
         .arg(&work)
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
     let results = summary["results"].as_array().ok_or("no results")?;
     assert_eq!(results.len(), 2);
@@ -575,11 +538,7 @@ fn eval_replays_a_real_ring() -> TestResult {
         .args(["--grid", "32", "--capture-grid", "24", "--json", "--work"])
         .arg(&work)
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout)?;
     let results = v["results"].as_array().ok_or("results")?;
     assert_eq!(results.len(), 2);

@@ -1,10 +1,11 @@
 //! `aibr demo` and its report, checked in a real headless browser (Debian's chromium; CI
 //! installs it, elsewhere the browser part is skipped with a note when it is missing).
 
+mod common;
+use common::*;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-type TestResult = Result<(), Box<dyn std::error::Error>>;
 
 fn chromium() -> Option<PathBuf> {
     ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
@@ -44,15 +45,11 @@ fn attributes(html: &str, attr: &str) -> Vec<String> {
 fn the_demo_report_loads_in_a_browser() -> TestResult {
     let out = std::env::temp_dir().join(format!("aibr-demo-test-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let run = Command::new(env!("CARGO_BIN_EXE_aibr"))
+    let run = aibr()
         .args(["demo", "--quick", "--out"])
         .arg(&out)
         .output()?;
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    assert_success(&run);
     let stdout = String::from_utf8_lossy(&run.stdout);
     let index = out.join("index.html");
     assert!(stdout.contains(&*index.to_string_lossy()), "{stdout}");

@@ -1,15 +1,12 @@
 //! `aibr ptu` and `aibr capture --turntable ptu:PATH` against `aibr ptu emulate`, over a real
 //! pseudo-terminal.
 
+mod common;
+use common::*;
+
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Output, Stdio};
-
-type TestResult = Result<(), Box<dyn std::error::Error>>;
-
-fn aibr() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_aibr"))
-}
+use std::process::{Child, Output, Stdio};
 
 /// An emulator process, stopped when dropped.
 struct Emulated {
@@ -129,11 +126,7 @@ fn capture_turns_the_emulated_ptu() -> TestResult {
         ])
         .arg(&dir)
         .output()?;
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let report = json(&out)?;
     assert_eq!(report["rig"], format!("{turntable}+sim:lambertian"));
     let views = report["views"].as_array().ok_or("no views")?;
@@ -243,19 +236,24 @@ fn webcams_need_a_calibration_and_name_the_device() -> TestResult {
         serde_json::from_str(&std::fs::read_to_string(session.join("session.json"))?)?;
     let calibration = dir.join("calibration.json");
     std::fs::write(&calibration, serde_json::to_string(&file["calibration"])?)?;
-    let out = aibr()
-        .args([
-            "capture",
-            "--turntable",
-            "ptu:/dev/null",
-            "--camera",
-            "v4l:/dev/video99",
-            "--calibration",
-        ])
-        .arg(&calibration)
-        .arg("--out")
-        .arg(dir.join("s"))
-        .output()?;
+    // A webcam capture with whatever the calibration file holds when it runs (the turntable
+    // is never reached).
+    let capture_with_calibration = || {
+        aibr()
+            .args([
+                "capture",
+                "--turntable",
+                "ptu:/dev/null",
+                "--camera",
+                "v4l:/dev/video99",
+                "--calibration",
+            ])
+            .arg(&calibration)
+            .arg("--out")
+            .arg(dir.join("s"))
+            .output()
+    };
+    let out = capture_with_calibration()?;
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     if cfg!(feature = "v4l") {
@@ -270,29 +268,13 @@ fn webcams_need_a_calibration_and_name_the_device() -> TestResult {
 
     // A calibration file that is not one is named.
     std::fs::write(&calibration, "{\"intrinsics\": 3}")?;
-    let out = aibr()
-        .args([
-            "capture",
-            "--turntable",
-            "ptu:/dev/null",
-            "--camera",
-            "v4l:/dev/video99",
-            "--calibration",
-        ])
-        .arg(&calibration)
-        .arg("--out")
-        .arg(dir.join("s"))
-        .output()?;
+    let out = capture_with_calibration()?;
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a calibration record"));
 
     let out = aibr().args(["v4l", "list"]).output()?;
     if cfg!(feature = "v4l") {
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_success(&out);
     } else {
         assert!(!out.status.success());
         assert!(String::from_utf8_lossy(&out.stderr).contains("--features v4l"));
