@@ -79,21 +79,13 @@ pub enum Error {
     /// The optimisation did not reach a usable solution.
     #[error("calibration did not converge: {0}")]
     NoConvergence(String),
-    /// A file could not be read or written.
+    /// A file could not be read.
     #[error("{path}: {source}")]
     Io {
         /// The file.
         path: PathBuf,
         /// The cause.
         source: std::io::Error,
-    },
-    /// An image could not be decoded.
-    #[error("{path}: cannot decode the image: {message}")]
-    Image {
-        /// The file.
-        path: PathBuf,
-        /// The decoder's message.
-        message: String,
     },
     /// A calibration file is malformed.
     #[error("{source_name}:{line}: {message}")]
