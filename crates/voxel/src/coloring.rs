@@ -265,7 +265,7 @@ struct BlockScratch {
     /// Per view: the current voxel's footprint.
     footprints: Vec<Option<Footprint>>,
     samples: Vec<Sample>,
-    decide: Vec<(f64, nalgebra::Vector3<f64>, usize)>,
+    decide: Vec<crate::kernel::Emission>,
 }
 
 impl BlockScratch {

@@ -34,9 +34,11 @@ pub enum Criterion {
         threshold: f32,
     },
     /// The paper's non-Lambertian criterion: rays from one surface point need agree only
-    /// where their emission angles are close. Over all pairs of views whose directions from
-    /// the voxel are within `window` of each other, the mean RMS colour difference is at most
-    /// `threshold`. With no such pair, all pairs are compared.
+    /// where their emission angles are close. Each view's mean RMS colour difference to the
+    /// views whose directions from the voxel are within `window` of its own, averaged over
+    /// the views weighted by the arc of directions each stands for, is at most `threshold`
+    /// (so the test does not depend on how densely the views sample the arc). With no pair
+    /// within the window, the mean over all pairs is compared.
     Angular {
         /// Largest mean RMS difference of neighbouring views, grey levels.
         threshold: f32,
@@ -509,7 +511,7 @@ pub(crate) fn decide(
     centres: &[Point3<f64>],
     x: &Point3<f64>,
     criterion: &Criterion,
-    scratch: &mut Vec<(f64, Vector3<f64>, usize)>,
+    scratch: &mut Vec<Emission>,
 ) -> Option<[u8; 3]> {
     let n = samples.len();
     if n == 0 {
@@ -536,53 +538,164 @@ pub(crate) fn decide(
             (var / (3 * n) as f32).sqrt() <= threshold
         }
         Criterion::Angular { threshold, window } => {
-            // Emission directions, sorted by azimuth about the pan axis; neighbours within
-            // the window are then contiguous (a superset filter: elevation only adds angle).
-            scratch.clear();
-            for (idx, s) in samples.iter().enumerate() {
-                let d = (centres[s.view] - x).normalize();
-                scratch.push((d.y.atan2(d.x), d, idx));
-            }
-            scratch.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)));
-            let w = window.radians();
-            let cos_w = w.cos();
-            let (mut sum, mut pairs) = (0f32, 0u32);
-            for a in 0..n {
-                for step in 1..n {
-                    let b = (a + step) % n;
-                    let mut gap = scratch[b].0 - scratch[a].0;
-                    if gap < 0.0 {
-                        gap += std::f64::consts::TAU;
-                    }
-                    if gap > w {
-                        break;
-                    }
-                    if scratch[a].1.dot(&scratch[b].1) >= cos_w {
-                        sum += rms_difference(
-                            &samples[scratch[a].2].colour,
-                            &samples[scratch[b].2].colour,
-                        );
-                        pairs += 1;
-                    }
-                }
-            }
-            if pairs == 0 {
-                for a in 0..n {
-                    for b in a + 1..n {
-                        sum += rms_difference(&samples[a].colour, &samples[b].colour);
-                        pairs += 1;
-                    }
-                }
-            }
-            pairs == 0 || sum / pairs as f32 <= threshold
+            angular_difference(samples, centres, x, window, scratch) <= threshold
         }
     };
     ok.then(|| mean.map(|m| m.round().clamp(0.0, 255.0) as u8))
 }
 
+/// One sample's ray as the angular criterion sees it, with its running comparison.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Emission {
+    /// Azimuth of the direction from the voxel to the camera, about the pan axis.
+    azimuth: f64,
+    /// That direction.
+    dir: Vector3<f64>,
+    /// The sample.
+    sample: usize,
+    /// Summed RMS difference to the neighbours within the window, and their number.
+    sum: f32,
+    count: u32,
+}
+
+/// The angular criterion's measure of a voxel: how much its colour changes between views
+/// whose directions from it are within `window`, in grey levels.
+///
+/// Each view's mean difference to its neighbours within the window, weighted by the arc of
+/// emission angles the view stands for (half the azimuth gaps to its neighbours, each capped
+/// at the window): the measure follows the surface's angular colour change, not how densely
+/// the views sample it. (A plain mean over pairs let a cluster of close views, such as an
+/// active capture adds, outvote the rest with its many pairs of nearly equal rays, and
+/// thickened surfaces seen from elsewhere.) With no pair within the window, the mean over all
+/// pairs.
+fn angular_difference(
+    samples: &[Sample],
+    centres: &[Point3<f64>],
+    x: &Point3<f64>,
+    window: Angle,
+    scratch: &mut Vec<Emission>,
+) -> f32 {
+    let n = samples.len();
+    // Sorted by azimuth, neighbours within the window are contiguous (a superset filter:
+    // elevation only adds angle).
+    scratch.clear();
+    for (sample, s) in samples.iter().enumerate() {
+        let dir = (centres[s.view] - x).normalize();
+        scratch.push(Emission {
+            azimuth: dir.y.atan2(dir.x),
+            dir,
+            sample,
+            sum: 0.0,
+            count: 0,
+        });
+    }
+    scratch.sort_by(|a, b| {
+        a.azimuth
+            .total_cmp(&b.azimuth)
+            .then(a.sample.cmp(&b.sample))
+    });
+    let w = window.radians();
+    let cos_w = w.cos();
+    let gap = |e: &[Emission], a: usize, b: usize| {
+        let g = e[b].azimuth - e[a].azimuth;
+        if g < 0.0 {
+            g + std::f64::consts::TAU
+        } else {
+            g
+        }
+    };
+    let mut pairs = 0usize;
+    for a in 0..n {
+        for step in 1..n {
+            let b = (a + step) % n;
+            if gap(scratch, a, b) > w {
+                break;
+            }
+            if scratch[a].dir.dot(&scratch[b].dir) >= cos_w {
+                let d = rms_difference(
+                    &samples[scratch[a].sample].colour,
+                    &samples[scratch[b].sample].colour,
+                );
+                for k in [a, b] {
+                    scratch[k].sum += d;
+                    scratch[k].count += 1;
+                }
+                pairs += 1;
+            }
+        }
+    }
+    if pairs == 0 {
+        let mut sum = 0f32;
+        for a in 0..n {
+            for b in a + 1..n {
+                sum += rms_difference(&samples[a].colour, &samples[b].colour);
+                pairs += 1;
+            }
+        }
+        return if pairs == 0 { 0.0 } else { sum / pairs as f32 };
+    }
+    let (mut sum, mut weights) = (0f32, 0f32);
+    for a in 0..n {
+        let e = &scratch[a];
+        if e.count == 0 {
+            continue;
+        }
+        let arc =
+            0.5 * (gap(scratch, (a + n - 1) % n, a).min(w) + gap(scratch, a, (a + 1) % n).min(w));
+        sum += arc as f32 * e.sum / e.count as f32;
+        weights += arc as f32;
+    }
+    if weights > 0.0 { sum / weights } else { 0.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn angular_measure_does_not_depend_on_view_density() {
+        // A voxel whose colour changes 10 grey levels per 10 degrees of emission angle, seen
+        // from a ring every 10 degrees over 0-180; then with 20 more views crowded into
+        // 40-60 degrees, which see nearly the same colour. The measure is about the surface,
+        // so it must not drop because of the crowd.
+        let ring = |degrees: &[f64]| -> (Vec<Point3<f64>>, Vec<Sample>) {
+            let centres = degrees
+                .iter()
+                .map(|d| {
+                    let a = d.to_radians();
+                    Point3::new(a.cos(), a.sin(), 0.5)
+                })
+                .collect();
+            let samples = degrees
+                .iter()
+                .enumerate()
+                .map(|(view, d)| Sample {
+                    view,
+                    colour: [100.0, 80.0, 60.0].map(|c| c + *d as f32),
+                })
+                .collect();
+            (centres, samples)
+        };
+        let uniform: Vec<f64> = (0..=18).map(|i| 10.0 * f64::from(i)).collect();
+        let mut crowded = uniform.clone();
+        crowded.extend((0..20).map(|i| 40.5 + f64::from(i)));
+        let window = Angle::from_degrees(35.0);
+        let x = Point3::origin();
+        let mut scratch = Vec::new();
+        let (c, s) = ring(&uniform);
+        let sparse = angular_difference(&s, &c, &x, window, &mut scratch);
+        let (c, s) = ring(&crowded);
+        let dense = angular_difference(&s, &c, &x, window, &mut scratch);
+        // Neighbours 10, 20 and 30 degrees apart differ by 10, 20 and 30 levels: 20 on
+        // average for a view with three on each side (less near the ends).
+        assert!((sparse - 20.0).abs() < 1.0, "uniform ring: {sparse}");
+        // The crowd's nearer neighbours differ less, but it stands for only 20 degrees (a
+        // plain mean over pairs gives 12.5).
+        assert!(
+            dense > 0.9 * sparse,
+            "crowded ring: {dense} against {sparse}"
+        );
+    }
 
     #[test]
     fn angular_tolerates_far_disagreement() {
