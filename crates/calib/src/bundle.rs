@@ -1,6 +1,7 @@
 //! Levenberg-Marquardt over camera parameters and board poses: the reprojection error of
 //! board corners, shared by intrinsic calibration and pose estimation.
 
+use aibr_camera::{Distortion, Intrinsics};
 use nalgebra::{
     DMatrix, DVector, Isometry3, Point2, Point3, Rotation3, Translation3, UnitQuaternion, Vector3,
 };
@@ -36,6 +37,32 @@ pub(crate) struct Solution {
     pub(crate) camera_std: [f64; CAMERA_PARAMS],
     /// Iterations run.
     pub(crate) iterations: usize,
+}
+
+/// Camera parameters in the optimiser's order.
+pub(crate) fn camera_params(i: &Intrinsics, d: &Distortion) -> [f64; CAMERA_PARAMS] {
+    let d = d.to_array();
+    [i.fx, i.fy, i.cx, i.cy, i.skew, d[0], d[1], d[2], d[3], d[4]]
+}
+
+/// The pinhole and distortion of camera parameters in the optimiser's order.
+pub(crate) fn camera_from_params(c: &[f64; CAMERA_PARAMS]) -> (Intrinsics, Distortion) {
+    (
+        Intrinsics {
+            fx: c[0],
+            fy: c[1],
+            cx: c[2],
+            cy: c[3],
+            skew: c[4],
+        },
+        Distortion {
+            k1: c[5],
+            k2: c[6],
+            p1: c[7],
+            p2: c[8],
+            k3: c[9],
+        },
+    )
 }
 
 /// A pose as axis-angle rotation and translation.

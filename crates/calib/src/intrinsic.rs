@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, Isometry3, Matrix3, Point2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::board::BoardSpec;
-use crate::bundle::{Bundle, CAMERA_PARAMS, SKEW, Solution};
+use crate::bundle::{Bundle, CAMERA_PARAMS, SKEW, Solution, camera_from_params, camera_params};
 use crate::detect::BoardDetection;
 use crate::error::{Error, Result};
 use crate::geometry::{homography, null_vector, pose_from_homography};
@@ -178,22 +178,20 @@ pub fn calibrate_intrinsics(
         free,
         aspect: options.fix_aspect_ratio.then(|| k[(1, 1)] / k[(0, 0)]),
     };
-    let start = [
-        k[(0, 0)],
-        k[(1, 1)],
-        k[(0, 2)],
-        k[(1, 2)],
-        if options.estimate_skew {
-            k[(0, 1)]
-        } else {
-            0.0
+    let start = camera_params(
+        &Intrinsics {
+            fx: k[(0, 0)],
+            fy: k[(1, 1)],
+            cx: k[(0, 2)],
+            cy: k[(1, 2)],
+            skew: if options.estimate_skew {
+                k[(0, 1)]
+            } else {
+                0.0
+            },
         },
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-    ];
+        &Distortion::NONE,
+    );
     let solution = problem.solve(start, &poses, options.max_iterations);
     // Parallel boards leave the focal length free: the solved poses show it directly (the
     // vanishing-line check above can be fooled by lens distortion), and so does its spread.
@@ -235,24 +233,10 @@ fn result(
     s: Solution,
     options: &IntrinsicOptions,
 ) -> Result<IntrinsicCalibration> {
-    let c = s.camera;
-    let intrinsics = Intrinsics {
-        fx: c[0],
-        fy: c[1],
-        cx: c[2],
-        cy: c[3],
-        skew: c[4],
-    };
+    let (intrinsics, distortion) = camera_from_params(&s.camera);
     intrinsics
         .validate()
         .map_err(|e| Error::NoConvergence(format!("the solution is not a camera: {e}")))?;
-    let distortion = Distortion {
-        k1: c[5],
-        k2: c[6],
-        p1: c[7],
-        p2: c[8],
-        k3: c[9],
-    };
     let corners = board.corner_count() as f64;
     let total: f64 = s.view_sse.iter().sum();
     let rms = (total / (corners * s.view_sse.len() as f64)).sqrt();

@@ -7,7 +7,7 @@ use aibr_camera::{
 use nalgebra::{Isometry3, Point2};
 
 use crate::board::BoardSpec;
-use crate::bundle::{Bundle, CAMERA_PARAMS};
+use crate::bundle::{Bundle, CAMERA_PARAMS, camera_params};
 use crate::detect::BoardDetection;
 use crate::error::{Error, Result};
 use crate::geometry::{homography, pose_from_homography};
@@ -95,20 +95,7 @@ pub fn estimate_board_pose(
         free: [false; CAMERA_PARAMS],
         aspect: None,
     };
-    let d = distortion.to_array();
-    let camera = [
-        intrinsics.fx,
-        intrinsics.fy,
-        intrinsics.cx,
-        intrinsics.cy,
-        intrinsics.skew,
-        d[0],
-        d[1],
-        d[2],
-        d[3],
-        d[4],
-    ];
-    let s = problem.solve(camera, &[start], 50);
+    let s = problem.solve(camera_params(intrinsics, distortion), &[start], 50);
     let pose = s.poses.first().copied().unwrap_or(start);
     let rms =
         (s.view_sse.first().copied().unwrap_or(f64::INFINITY) / board.corner_count() as f64).sqrt();
