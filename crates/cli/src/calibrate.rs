@@ -157,7 +157,7 @@ fn detect_all(paths: &[PathBuf], board: &BoardSpec, params: &DetectorParams) -> 
 
 fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
     let (board, params) = a.board.spec()?;
-    Format::of(&a.output)?;
+    let format = Format::of(&a.output)?;
     let t0 = Instant::now();
     let Detected {
         images: used,
@@ -205,7 +205,7 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
         distortion: cal.distortion,
         rms: Some(cal.rms),
     };
-    aibr::write_atomic(&a.output, file.to_text(Format::of(&a.output)?)?.as_bytes())?;
+    aibr::write_atomic(&a.output, file.to_text(format)?.as_bytes())?;
     let i = cal.intrinsics;
     let s = cal.std;
     if a.json {
@@ -222,7 +222,7 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
                 "rms": v.rms,
                 "outlier": v.outlier,
             })).collect::<Vec<_>>(),
-            "rejected": rejected.iter().map(|(p, r)| json!({"image": p.display().to_string(), "reason": r})).collect::<Vec<_>>(),
+            "rejected": rejected_json(&rejected),
             "seconds": {"detect": detect_s, "calibrate": calibrate_s},
             "output": a.output.display().to_string(),
         });
@@ -275,6 +275,14 @@ fn intrinsics(a: IntrinsicsArgs) -> Result<()> {
     Ok(())
 }
 
+/// The rejected images of a JSON report.
+fn rejected_json(rejected: &[(PathBuf, String)]) -> serde_json::Value {
+    rejected
+        .iter()
+        .map(|(p, r)| json!({"image": p.display().to_string(), "reason": r}))
+        .collect()
+}
+
 fn short(p: &Path) -> String {
     p.file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -302,18 +310,14 @@ fn parse_range(s: &str) -> Result<PanRange> {
     let (a, b) = s
         .split_once(':')
         .with_context(|| format!("--range {s:?}: expected MIN:MAX in degrees"))?;
-    let a: f64 = a
-        .trim()
-        .parse()
-        .with_context(|| format!("--range {s:?}: {a:?} is not a number"))?;
-    let b: f64 = b
-        .trim()
-        .parse()
-        .with_context(|| format!("--range {s:?}: {b:?} is not a number"))?;
-    Ok(PanRange::new(
-        Angle::from_degrees(a),
-        Angle::from_degrees(b),
-    )?)
+    let degrees = |x: &str| -> Result<Angle> {
+        let d: f64 = x
+            .trim()
+            .parse()
+            .with_context(|| format!("--range {s:?}: {x:?} is not a number"))?;
+        Ok(Angle::from_degrees(d))
+    };
+    Ok(PanRange::new(degrees(a)?, degrees(b)?)?)
 }
 
 fn turntable(a: TurntableArgs) -> Result<()> {
@@ -355,19 +359,11 @@ fn turntable(a: TurntableArgs) -> Result<()> {
     let range = match &a.range {
         Some(r) => parse_range(r)?,
         None => {
-            let lo = pan_views
-                .iter()
-                .map(|v| v.pan.degrees())
-                .fold(f64::MAX, f64::min);
-            let hi = pan_views
-                .iter()
-                .map(|v| v.pan.degrees())
-                .fold(f64::MIN, f64::max);
-            PanRange::new(
-                Angle::from_degrees(lo.min(hi)),
-                Angle::from_degrees(hi.max(lo)),
-            )
-            .context("the views' pan angles do not form a range; give --range MIN:MAX")?
+            let pans = pan_views.iter().map(|v| v.pan.radians());
+            let lo = pans.clone().fold(f64::INFINITY, f64::min);
+            let hi = pans.fold(f64::NEG_INFINITY, f64::max);
+            PanRange::new(Angle::from_radians(lo), Angle::from_radians(hi))
+                .context("the views' pan angles do not form a range; give --range MIN:MAX")?
         }
     };
     let cal = calibrate_turntable(
@@ -391,8 +387,7 @@ fn turntable(a: TurntableArgs) -> Result<()> {
     aibr::write_atomic(
         &a.output,
         format!("{}\n", serde_json::to_string_pretty(&record)?).as_bytes(),
-    )
-    .with_context(|| format!("writing {}", a.output.display()))?;
+    )?;
     let c0 = cal.fit.model.centre_at_zero();
     if a.json {
         let report = json!({
@@ -409,7 +404,7 @@ fn turntable(a: TurntableArgs) -> Result<()> {
                 "centre_mm": l.centre_m * 1e3,
                 "rotation_deg": l.rotation.degrees(),
             })).collect::<Vec<_>>(),
-            "rejected": rejected.iter().map(|(p, r)| json!({"image": p.display().to_string(), "reason": r})).collect::<Vec<_>>(),
+            "rejected": rejected_json(&rejected),
             "circle_rms_mm": cal.fit.rms_centre_m() * 1e3,
             "circle_rms_deg": cal.fit.rms_rotation().degrees(),
             "camera_radius_m": c0.coords.xy().norm(),
