@@ -43,8 +43,7 @@ fn attributes(html: &str, attr: &str) -> Vec<String> {
 
 #[test]
 fn the_demo_report_loads_in_a_browser() -> TestResult {
-    let out = std::env::temp_dir().join(format!("aibr-demo-test-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
+    let out = temp("demo");
     let run = aibr()
         .args(["demo", "--quick", "--out"])
         .arg(&out)

@@ -103,8 +103,7 @@ fn info_move_limits_home_halt() -> TestResult {
 #[test]
 fn capture_turns_the_emulated_ptu() -> TestResult {
     let unit = emulate()?;
-    let dir: PathBuf = std::env::temp_dir().join(format!("aibr-cli-ptu-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = temp("ptu");
     let turntable = format!("ptu:{}", unit.path);
     let out = aibr()
         .args([
@@ -191,20 +190,24 @@ fn bad_ports_and_specs_are_named() -> TestResult {
 
 #[test]
 fn webcams_need_a_calibration_and_name_the_device() -> TestResult {
-    let dir = std::env::temp_dir().join(format!("aibr-cli-v4l-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = temp("v4l");
     std::fs::create_dir_all(&dir)?;
-    let out = aibr()
-        .args([
+    // A webcam capture (the turntable is never reached), with a calibration file or without.
+    let webcam_capture = |calibration: Option<&PathBuf>| {
+        let mut command = aibr();
+        command.args([
             "capture",
             "--turntable",
             "ptu:/dev/null",
             "--camera",
             "v4l:/dev/video99",
-        ])
-        .arg("--out")
-        .arg(dir.join("s"))
-        .output()?;
+        ]);
+        if let Some(c) = calibration {
+            command.arg("--calibration").arg(c);
+        }
+        command.arg("--out").arg(dir.join("s")).output()
+    };
+    let out = webcam_capture(None)?;
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     if cfg!(feature = "v4l") {
@@ -236,24 +239,7 @@ fn webcams_need_a_calibration_and_name_the_device() -> TestResult {
         serde_json::from_str(&std::fs::read_to_string(session.join("session.json"))?)?;
     let calibration = dir.join("calibration.json");
     std::fs::write(&calibration, serde_json::to_string(&file["calibration"])?)?;
-    // A webcam capture with whatever the calibration file holds when it runs (the turntable
-    // is never reached).
-    let capture_with_calibration = || {
-        aibr()
-            .args([
-                "capture",
-                "--turntable",
-                "ptu:/dev/null",
-                "--camera",
-                "v4l:/dev/video99",
-                "--calibration",
-            ])
-            .arg(&calibration)
-            .arg("--out")
-            .arg(dir.join("s"))
-            .output()
-    };
-    let out = capture_with_calibration()?;
+    let out = webcam_capture(Some(&calibration))?;
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     if cfg!(feature = "v4l") {
@@ -268,7 +254,7 @@ fn webcams_need_a_calibration_and_name_the_device() -> TestResult {
 
     // A calibration file that is not one is named.
     std::fs::write(&calibration, "{\"intrinsics\": 3}")?;
-    let out = capture_with_calibration()?;
+    let out = webcam_capture(Some(&calibration))?;
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a calibration record"));
 
