@@ -7,6 +7,7 @@
 //! then over channels. Golden values from scikit-image are in `fixtures/metrics/`.
 
 use image::{GrayImage, RgbImage};
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
@@ -56,29 +57,73 @@ pub fn psnr(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
     })
 }
 
-/// Separable Gaussian blur (sigma 1.5, 11 taps, edges replicated).
-fn blur(src: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> {
-    let r = kernel.len() / 2;
-    let mut tmp = vec![0.0; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let mut s = 0.0;
-            for (t, k) in kernel.iter().enumerate() {
-                let xx = (x + t).saturating_sub(r).min(w - 1);
-                s += k * src[y * w + xx];
-            }
-            tmp[y * w + x] = s;
+/// The pixel rectangle `[x0, x1) x [y0, y1)` over which SSIM is averaged.
+#[derive(Debug, Clone, Copy)]
+struct Window {
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
+}
+
+/// The five per-pixel products SSIM blurs, of one channel of two images.
+#[derive(Debug, Clone, Copy)]
+enum Map {
+    X,
+    Y,
+    XX,
+    YY,
+    XY,
+}
+
+/// One channel of two images, as the [`Map`] values SSIM blurs.
+struct Channel<'a> {
+    a: &'a [u8],
+    b: &'a [u8],
+    c: usize,
+    w: usize,
+}
+
+impl Channel<'_> {
+    #[inline]
+    fn at(&self, map: Map, x: usize, y: usize) -> f64 {
+        let i = 3 * (y * self.w + x) + self.c;
+        let (p, q) = (self.a[i] as f64, self.b[i] as f64);
+        match map {
+            Map::X => p,
+            Map::Y => q,
+            Map::XX => p * p,
+            Map::YY => q * q,
+            Map::XY => p * q,
         }
     }
-    let mut out = vec![0.0; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let mut s = 0.0;
+}
+
+/// Separable Gaussian blur of one map of `ch` (`kernel` taps, the whole image's edges
+/// replicated), computed only over `win`: row-major, `win`'s width per row. Each value is
+/// summed in the same order as a blur of the whole image would.
+fn blur(ch: &Channel<'_>, map: Map, h: usize, kernel: &[f64], win: Window) -> Vec<f64> {
+    let (w, r) = (ch.w, kernel.len() / 2);
+    let cw = win.x1 - win.x0;
+    // Horizontal pass over the rows the vertical pass reads.
+    let (ty0, ty1) = (win.y0.saturating_sub(r), (win.y1 + r).min(h));
+    let mut tmp = vec![0.0; cw * (ty1 - ty0)];
+    for (y, row) in (ty0..ty1).zip(tmp.chunks_exact_mut(cw)) {
+        for (j, acc) in row.iter_mut().enumerate() {
+            let x = win.x0 + j;
             for (t, k) in kernel.iter().enumerate() {
-                let yy = (y + t).saturating_sub(r).min(h - 1);
-                s += k * tmp[yy * w + x];
+                *acc += k * ch.at(map, (x + t).saturating_sub(r).min(w - 1), y);
             }
-            out[y * w + x] = s;
+        }
+    }
+    // Vertical pass, tap by tap over whole rows.
+    let mut out = vec![0.0; cw * (win.y1 - win.y0)];
+    for (y, row) in (win.y0..win.y1).zip(out.chunks_exact_mut(cw)) {
+        for (t, k) in kernel.iter().enumerate() {
+            let yy = (y + t).saturating_sub(r).min(h - 1) - ty0;
+            for (acc, v) in row.iter_mut().zip(&tmp[yy * cw..(yy + 1) * cw]) {
+                *acc += k * v;
+            }
         }
     }
     out
@@ -86,6 +131,10 @@ fn blur(src: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> {
 
 /// Structural similarity of `b` against `a` (see the module docs for the exact definition),
 /// averaged over the pixels where `mask` is non-zero.
+///
+/// The Gaussian statistics are computed only over the bounding box of the pixels averaged,
+/// the fifteen blurs (five per channel) in parallel; the result is the same as blurring the
+/// whole images.
 pub fn ssim(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64> {
     check(a, b, mask)?;
     let (w, h) = (a.width() as usize, a.height() as usize);
@@ -101,26 +150,51 @@ pub fn ssim(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
     kernel.iter_mut().for_each(|k| *k /= total);
     let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
     let pad = (2 * radius) / 2;
+    // The pixels averaged: the image less the border, inside the mask.
+    let inside = |x: usize, y: usize| mask.is_none_or(|m| m.as_raw()[y * w + x] != 0);
+    let mut win = Window {
+        x0: usize::MAX,
+        x1: 0,
+        y0: usize::MAX,
+        y1: 0,
+    };
+    for y in pad..h.saturating_sub(pad) {
+        for x in pad..w.saturating_sub(pad) {
+            if inside(x, y) {
+                win.x0 = win.x0.min(x);
+                win.x1 = win.x1.max(x + 1);
+                win.y0 = win.y0.min(y);
+                win.y1 = win.y1.max(y + 1);
+            }
+        }
+    }
+    if win.x0 >= win.x1 {
+        return Err(Error::EmptyMask);
+    }
+    const MAPS: [Map; 5] = [Map::X, Map::Y, Map::XX, Map::YY, Map::XY];
+    let blurred: Vec<Vec<f64>> = (0..3 * MAPS.len())
+        .into_par_iter()
+        .map(|job| {
+            let ch = Channel {
+                a: a.as_raw(),
+                b: b.as_raw(),
+                c: job / MAPS.len(),
+                w,
+            };
+            blur(&ch, MAPS[job % MAPS.len()], h, &kernel, win)
+        })
+        .collect();
+    let cw = win.x1 - win.x0;
     let mut channel_means = [0.0f64; 3];
     for (c, mean) in channel_means.iter_mut().enumerate() {
-        let x: Vec<f64> = a.pixels().map(|p| p.0[c] as f64).collect();
-        let y: Vec<f64> = b.pixels().map(|p| p.0[c] as f64).collect();
-        let xx: Vec<f64> = x.iter().map(|v| v * v).collect();
-        let yy: Vec<f64> = y.iter().map(|v| v * v).collect();
-        let xy: Vec<f64> = x.iter().zip(&y).map(|(p, q)| p * q).collect();
-        let (ux, uy) = (blur(&x, w, h, &kernel), blur(&y, w, h, &kernel));
-        let (uxx, uyy, uxy) = (
-            blur(&xx, w, h, &kernel),
-            blur(&yy, w, h, &kernel),
-            blur(&xy, w, h, &kernel),
-        );
+        let [ux, uy, uxx, uyy, uxy] = [0, 1, 2, 3, 4].map(|m| &blurred[c * MAPS.len() + m]);
         let (mut sum, mut n) = (0.0, 0usize);
-        for yy_ in pad..h.saturating_sub(pad) {
-            for xx_ in pad..w.saturating_sub(pad) {
-                let i = yy_ * w + xx_;
-                if mask.is_some_and(|m| m.as_raw()[i] == 0) {
+        for y in win.y0..win.y1 {
+            for x in win.x0..win.x1 {
+                if !inside(x, y) {
                     continue;
                 }
+                let i = (y - win.y0) * cw + (x - win.x0);
                 let vx = uxx[i] - ux[i] * ux[i];
                 let vy = uyy[i] - uy[i] * uy[i];
                 let cxy = uxy[i] - ux[i] * uy[i];
@@ -130,10 +204,7 @@ pub fn ssim(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
                 n += 1;
             }
         }
-        if n == 0 {
-            return Err(Error::EmptyMask);
-        }
-        *mean = sum / n as f64;
+        *mean = sum / n.max(1) as f64;
     }
     Ok(channel_means.iter().sum::<f64>() / 3.0)
 }
