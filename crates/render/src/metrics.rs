@@ -82,6 +82,7 @@ struct Channel<'a> {
     b: &'a [u8],
     c: usize,
     w: usize,
+    h: usize,
 }
 
 impl Channel<'_> {
@@ -102,8 +103,8 @@ impl Channel<'_> {
 /// Separable Gaussian blur of one map of `ch` (`kernel` taps, the whole image's edges
 /// replicated), computed only over `win`: row-major, `win`'s width per row. Each value is
 /// summed in the same order as a blur of the whole image would.
-fn blur(ch: &Channel<'_>, map: Map, h: usize, kernel: &[f64], win: Window) -> Vec<f64> {
-    let (w, r) = (ch.w, kernel.len() / 2);
+fn blur(ch: &Channel<'_>, map: Map, kernel: &[f64], win: Window) -> Vec<f64> {
+    let (w, h, r) = (ch.w, ch.h, kernel.len() / 2);
     let cw = win.x1 - win.x0;
     // Horizontal pass over the rows the vertical pass reads.
     let (ty0, ty1) = (win.y0.saturating_sub(r), (win.y1 + r).min(h));
@@ -180,8 +181,9 @@ pub fn ssim(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
                 b: b.as_raw(),
                 c: job / MAPS.len(),
                 w,
+                h,
             };
-            blur(&ch, MAPS[job % MAPS.len()], h, &kernel, win)
+            blur(&ch, MAPS[job % MAPS.len()], &kernel, win)
         })
         .collect();
     let cw = win.x1 - win.x0;
