@@ -114,7 +114,6 @@ pub fn voxel_coloring(
     let (projectors, pixels, centres) = prepare(grid, views, params)?;
     let n = views.len();
     let [nx, ny, nz] = grid.dims();
-    let mut claimed: Vec<Vec<u8>> = pixels.iter().map(|p| vec![0u8; p.rgb.len() / 3]).collect();
     let mut tiles: Vec<Tiles> = pixels.iter().map(Tiles::new).collect();
     let mut model = VoxelModel::empty(*grid);
     let mut stats = KernelStats {
@@ -125,7 +124,7 @@ pub fn voxel_coloring(
     for k in (0..nz).rev() {
         // Decide the layer block by block, blocks in parallel, against the claims of the
         // layers above.
-        let (claimed_ref, tiles_ref) = (&claimed, &tiles);
+        let tiles_ref = &tiles;
         let blocks: Vec<BlockResult> = (0..bx * by)
             .into_par_iter()
             .map_init(
@@ -141,7 +140,6 @@ pub fn voxel_coloring(
                         &projectors,
                         &pixels,
                         &centres,
-                        claimed_ref,
                         tiles_ref,
                         params,
                         scratch,
@@ -158,33 +156,27 @@ pub fn voxel_coloring(
             }
         }
         // Claim the layer's footprints, views in parallel.
-        claimed
+        tiles
             .par_iter_mut()
-            .zip(tiles.par_iter_mut())
             .zip(projectors.par_iter())
-            .zip(pixels.par_iter())
-            .for_each(|(((cl, tl), proj), px)| {
+            .for_each(|(tl, proj)| {
                 for &([i, j, k], _) in blocks.iter().flat_map(|b| &b.kept) {
                     let base = proj.row_base(grid, j, k);
                     if let Some(fp) = proj.footprint(proj.along_row(&base, i)) {
-                        tl.claim(px, cl, &fp);
+                        tl.claim(&fp);
                     }
                 }
+                tl.settle();
             });
     }
     if params.visible_only {
-        keep_visible(&mut model, &projectors, &pixels, &mut stats);
+        keep_visible(&mut model, &projectors, &mut stats);
     }
     Ok(Reconstruction { model, stats })
 }
 
 /// Removes the voxels no view sees (see [`ColoringParams::visible_only`]).
-fn keep_visible(
-    model: &mut VoxelModel,
-    projectors: &[Projector],
-    pixels: &[Pixels<'_>],
-    stats: &mut KernelStats,
-) {
+fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut KernelStats) {
     let grid = *model.grid();
     let voxels: Vec<[usize; 3]> = model
         .occupied
@@ -194,23 +186,33 @@ fn keep_visible(
         .collect();
     let seen: Vec<Vec<bool>> = projectors
         .par_iter()
-        .zip(pixels.par_iter())
-        .map(|(proj, px)| {
-            let area = px.rgb.len() / 3;
-            let mut depth = vec![f32::INFINITY; area];
-            let mut owner = vec![u32::MAX; area];
-            let fps: Vec<Option<(crate::kernel::Footprint, f32)>> = voxels
+        .map(|proj| {
+            let fps: Vec<Option<(Footprint, f32)>> = voxels
                 .iter()
                 .map(|&[i, j, k]| {
                     let h = proj.along_row(&proj.row_base(&grid, j, k), i);
                     proj.footprint(h).map(|fp| (fp, h[2]))
                 })
                 .collect();
+            // The z-buffer covers only the footprints' bounding box.
+            let (mut u0, mut u1, mut v0, mut v1) = (u32::MAX, 0, u32::MAX, 0);
+            for (fp, _) in fps.iter().flatten() {
+                (u0, u1) = (u0.min(fp.u0), u1.max(fp.u1));
+                (v0, v1) = (v0.min(fp.v0), v1.max(fp.v1));
+            }
+            let width = u1.saturating_sub(u0) as usize + 1;
+            let area = if u0 > u1 {
+                0
+            } else {
+                width * (v1 - v0 + 1) as usize
+            };
+            let mut depth = vec![f32::INFINITY; area];
+            let mut owner = vec![u32::MAX; area];
             for (n, f) in fps.iter().enumerate() {
                 let Some((fp, z)) = f else { continue };
                 for v in fp.v0..=fp.v1 {
                     for u in fp.u0..=fp.u1 {
-                        let p = v as usize * px.width + u as usize;
+                        let p = (v - v0) as usize * width + (u - u0) as usize;
                         // Ties go to the lower index, the same in every run.
                         if *z < depth[p] {
                             depth[p] = *z;
@@ -262,8 +264,13 @@ struct BlockScratch {
     needed: Vec<bool>,
     /// Per view: the projection of voxel `[0, j, k]` of the current row.
     bases: Vec<[f32; 3]>,
-    /// Per view: the current voxel's footprint.
+    /// Per view: the footprint of voxel `stamps[v]` (so a view that is both a silhouette and
+    /// an active view projects each voxel once).
     footprints: Vec<Option<Footprint>>,
+    stamps: Vec<usize>,
+    /// Index into `silhouette` of the view that rejected the last rejected voxel: neighbours
+    /// tend to fall outside the same silhouette, so it is asked first.
+    rejecter: usize,
     samples: Vec<Sample>,
     decide: Vec<crate::kernel::Emission>,
 }
@@ -276,9 +283,21 @@ impl BlockScratch {
             needed: vec![false; n],
             bases: vec![[0.0; 3]; n],
             footprints: vec![None; n],
+            stamps: vec![usize::MAX; n],
+            rejecter: 0,
             samples: Vec::with_capacity(n),
             decide: Vec::with_capacity(n),
         }
+    }
+
+    /// The footprint of voxel `i` of the current row (stamp `stamp`) in view `v`.
+    #[inline]
+    fn footprint(&mut self, p: &Projector, v: usize, i: usize, stamp: usize) -> Option<Footprint> {
+        if self.stamps[v] != stamp {
+            self.stamps[v] = stamp;
+            self.footprints[v] = p.footprint(p.along_row(&self.bases[v], i));
+        }
+        self.footprints[v]
     }
 }
 
@@ -298,7 +317,6 @@ fn decide_block(
     projectors: &[Projector],
     pixels: &[Pixels<'_>],
     centres: &[Point3<f64>],
-    claimed: &[Vec<u8>],
     tiles: &[Tiles],
     params: &ColoringParams,
     scratch: &mut BlockScratch,
@@ -347,6 +365,8 @@ fn decide_block(
     for &v in scratch.silhouette.iter().chain(&scratch.active) {
         scratch.needed[v] = true;
     }
+    scratch.stamps.fill(usize::MAX);
+    scratch.rejecter = 0;
     for j in j0..j1 {
         for (v, p) in projectors.iter().enumerate() {
             if scratch.needed[v] {
@@ -354,27 +374,39 @@ fn decide_block(
             }
         }
         for i in i0..i1 {
-            for (v, p) in projectors.iter().enumerate() {
-                if scratch.needed[v] {
-                    scratch.footprints[v] = p.footprint(p.along_row(&scratch.bases[v], i));
+            // A stamp unique to the voxel within the block.
+            let stamp = (j - j0) * (i1 - i0) + (i - i0);
+            let m = scratch.silhouette.len();
+            let rejected = (0..m).any(|a| {
+                let s = (scratch.rejecter + a) % m;
+                let v = scratch.silhouette[s];
+                let out = scratch
+                    .footprint(&projectors[v], v, i, stamp)
+                    .is_some_and(|f| tiles[v].all_background(&pixels[v], &f));
+                if out {
+                    scratch.rejecter = s;
                 }
-            }
-            let fps = &scratch.footprints;
-            if scratch
-                .silhouette
-                .iter()
-                .any(|&v| fps[v].is_some_and(|f| tiles[v].all_background(&pixels[v], &f)))
-            {
+                out
+            });
+            if rejected {
                 out.rejected += 1;
                 continue;
             }
             scratch.samples.clear();
-            for &v in &scratch.active {
-                let Some(f) = fps[v] else { continue };
+            let m = scratch.active.len();
+            for a in 0..m {
+                // A voxel that can no longer reach `min_views` is not tested.
+                if scratch.samples.len() + (m - a) < params.min_views {
+                    break;
+                }
+                let v = scratch.active[a];
+                let Some(f) = scratch.footprint(&projectors[v], v, i, stamp) else {
+                    continue;
+                };
                 if tiles[v].all_claimed(&f) {
                     continue;
                 }
-                let (sum, count) = pixels[v].gather(&f, &claimed[v]);
+                let (sum, count) = tiles[v].gather(&pixels[v], &f);
                 if count > 0 {
                     scratch.samples.push(Sample::new(v, sum, count));
                 }
@@ -462,7 +494,7 @@ pub fn voxel_coloring_reference(
         stats.kept += layer.len();
     }
     if params.visible_only {
-        keep_visible(&mut model, &projectors, &pixels, &mut stats);
+        keep_visible(&mut model, &projectors, &mut stats);
     }
     Ok(Reconstruction { model, stats })
 }

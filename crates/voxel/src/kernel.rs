@@ -240,7 +240,7 @@ impl Projector {
 }
 
 /// Edge of the square tiles that summarise masks and claims, pixels.
-pub(crate) const TILE: u32 = 8;
+pub(crate) const TILE: u32 = 4;
 
 /// `floor(x + 0.5)` without libm's `floorf` (baseline x86-64 has no rounding instruction):
 /// shifted by 1024 so that truncation floors every coordinate above -1024 px; footprints
@@ -309,20 +309,27 @@ impl<'a> Pixels<'a> {
     }
 }
 
-/// Per-tile summaries of one view (tiles of [`TILE`] x [`TILE`] pixels), small enough to
-/// stay in cache: exact shortcuts for the mask and claim tests.
+/// The fast kernel's per-view state: which pixels a voxel may still gather from, and
+/// per-tile summaries of that and of the mask ([`TILE`] x [`TILE`] pixels, small enough to
+/// stay in cache) that settle most questions exactly without visiting pixels.
 #[derive(Debug, Clone)]
 pub(crate) struct Tiles {
     pub(crate) cols: usize,
+    /// Per pixel: 0 while it is foreground and unclaimed, 1 once it is claimed or when it is
+    /// background. A gather then reads one array instead of the claims and the mask.
+    pub(crate) resolved: Vec<u8>,
     /// Per tile: 0 = every pixel background, 2 = every pixel foreground, 1 = mixed (no mask:
     /// all 2).
     pub(crate) mask: Vec<u8>,
-    /// Per tile: 1 when every pixel is claimed or background (so no voxel can gather from
-    /// the tile any more).
+    /// Per tile: 1 when every pixel is resolved (so no voxel can gather from the tile any
+    /// more).
     pub(crate) full: Vec<u8>,
-    /// Per tile: pixels claimed or background so far, and pixels in the tile.
-    resolved: Vec<u16>,
-    area: Vec<u16>,
+    /// Tiles claimed into since the last [`Tiles::settle`], to be checked for fullness.
+    dirty: Vec<u32>,
+    /// Per tile: listed in `dirty`.
+    listed: Vec<bool>,
+    width: usize,
+    height: usize,
 }
 
 impl Tiles {
@@ -331,18 +338,20 @@ impl Tiles {
         let t = TILE as usize;
         let (cols, rows) = (w.div_ceil(t), h.div_ceil(t));
         let mut mask = vec![2u8; cols * rows];
-        let mut resolved = vec![0u16; cols * rows];
-        if let Some(m) = px.mask {
+        let resolved: Vec<u8> = match px.mask {
+            Some(m) => m.iter().map(|&b| u8::from(b == 0)).collect(),
+            None => vec![0; w * h],
+        };
+        if px.mask.is_some() {
             for ty in 0..rows {
                 for tx in 0..cols {
                     let (mut fg, mut bg) = (false, false);
                     for y in ty * t..((ty + 1) * t).min(h) {
-                        for x in tx * t..((tx + 1) * t).min(w) {
-                            if m[y * w + x] != 0 {
+                        for &r in &resolved[y * w + tx * t..y * w + ((tx + 1) * t).min(w)] {
+                            if r == 0 {
                                 fg = true;
                             } else {
                                 bg = true;
-                                resolved[ty * cols + tx] += 1;
                             }
                         }
                     }
@@ -354,26 +363,16 @@ impl Tiles {
                 }
             }
         }
-        let area: Vec<u16> = (0..rows)
-            .flat_map(|ty| {
-                (0..cols).map(move |tx| {
-                    let tw = ((tx + 1) * t).min(w) - tx * t;
-                    let th = ((ty + 1) * t).min(h) - ty * t;
-                    (tw * th) as u16
-                })
-            })
-            .collect();
-        let full = resolved
-            .iter()
-            .zip(&area)
-            .map(|(r, a)| u8::from(r == a))
-            .collect();
+        let full = mask.iter().map(|&m| u8::from(m == 0)).collect();
         Tiles {
             cols,
-            full,
             resolved,
-            area,
             mask,
+            full,
+            dirty: Vec::new(),
+            listed: vec![false; cols * rows],
+            width: w,
+            height: h,
         }
     }
 
@@ -445,25 +444,60 @@ impl Tiles {
         (ty0..=ty1).all(|ty| (tx0..=tx1).all(|tx| self.full[ty * self.cols + tx] != 0))
     }
 
-    /// Claims the pixels of `fp`, keeping the tile summaries up to date.
-    pub(crate) fn claim(&mut self, px: &Pixels<'_>, claimed: &mut [u8], fp: &Footprint) {
+    /// Sum and count of the footprint pixels not yet resolved: the same as
+    /// [`Pixels::gather`] with the claims and the mask, from one array.
+    #[inline]
+    pub(crate) fn gather(&self, px: &Pixels<'_>, fp: &Footprint) -> ([u32; 3], u32) {
+        let mut sum = [0u32; 3];
+        let mut n = 0u32;
         for v in fp.v0..=fp.v1 {
-            let row = v as usize * px.width;
-            let tile_row = (v / TILE) as usize * self.cols;
+            let row = v as usize * self.width;
             for u in fp.u0..=fp.u1 {
                 let i = row + u as usize;
-                if claimed[i] == 0 {
-                    claimed[i] = 1;
-                    // Background pixels were counted as resolved from the start.
-                    if px.mask.is_none_or(|m| m[i] != 0) {
-                        let t = tile_row + (u / TILE) as usize;
-                        self.resolved[t] += 1;
-                        if self.resolved[t] == self.area[t] {
-                            self.full[t] = 1;
-                        }
-                    }
+                if self.resolved[i] != 0 {
+                    continue;
+                }
+                let c = &px.rgb[3 * i..3 * i + 3];
+                sum[0] += c[0] as u32;
+                sum[1] += c[1] as u32;
+                sum[2] += c[2] as u32;
+                n += 1;
+            }
+        }
+        (sum, n)
+    }
+
+    /// Claims the pixels of `fp`; the tile summaries follow at the next [`Tiles::settle`].
+    pub(crate) fn claim(&mut self, fp: &Footprint) {
+        for v in fp.v0..=fp.v1 {
+            let row = v as usize * self.width;
+            self.resolved[row + fp.u0 as usize..=row + fp.u1 as usize].fill(1);
+        }
+        let (tx0, tx1, ty0, ty1) = Self::range(fp);
+        for ty in ty0..=ty1 {
+            for tx in tx0..=tx1 {
+                let t = ty * self.cols + tx;
+                if self.full[t] == 0 && !self.listed[t] {
+                    self.listed[t] = true;
+                    self.dirty.push(t as u32);
                 }
             }
+        }
+    }
+
+    /// Brings the tile summaries up to date with the claims made since the last call.
+    pub(crate) fn settle(&mut self) {
+        let t = TILE as usize;
+        for tile in self.dirty.drain(..) {
+            let tile = tile as usize;
+            self.listed[tile] = false;
+            let (tx, ty) = (tile % self.cols, tile / self.cols);
+            let (x0, x1) = (tx * t, ((tx + 1) * t).min(self.width));
+            let full = (ty * t..((ty + 1) * t).min(self.height)).all(|y| {
+                let row = &self.resolved[y * self.width + x0..y * self.width + x1];
+                row.iter().all(|&r| r != 0)
+            });
+            self.full[tile] = u8::from(full);
         }
     }
 }
