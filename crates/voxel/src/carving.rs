@@ -36,6 +36,63 @@ impl Default for CarvingParams {
     }
 }
 
+/// The visual hull: the voxels of `grid` that no view's mask shows as background at every
+/// pixel of their footprint (views without a mask reject nothing). Every reconstruction
+/// that respects the silhouettes lies inside it, so its projection bounds how much of a
+/// silhouette any such model can cover. Kept voxels are grey.
+///
+/// Errors: no views, or image or mask sizes that differ from their camera, or distorted
+/// cameras.
+pub fn visual_hull(grid: &VoxelGrid, views: &[View<'_>]) -> Result<VoxelModel> {
+    validate_views(views, 1)?;
+    let projectors: Vec<Projector> = views
+        .iter()
+        .map(|v| Projector::new(v.camera, grid))
+        .collect();
+    let pixels: Vec<Pixels<'_>> = views.iter().map(Pixels::of).collect();
+    let mut model = VoxelModel::full(*grid);
+    carve_hull(&mut model, &projectors, &pixels);
+    Ok(model)
+}
+
+/// Clears the voxels of `model` outside the visual hull; returns how many.
+fn carve_hull(model: &mut VoxelModel, projectors: &[Projector], pixels: &[Pixels<'_>]) -> usize {
+    let grid = *model.grid();
+    let [nx, ny, nz] = grid.dims();
+    let hull: Vec<Vec<bool>> = (0..nz)
+        .into_par_iter()
+        .map(|k| {
+            let mut layer = vec![true; nx * ny];
+            for j in 0..ny {
+                let bases: Vec<[f32; 3]> =
+                    projectors.iter().map(|p| p.row_base(&grid, j, k)).collect();
+                for i in 0..nx {
+                    layer[j * nx + i] =
+                        !projectors
+                            .iter()
+                            .zip(pixels)
+                            .zip(&bases)
+                            .any(|((p, px), b)| {
+                                p.footprint(p.along_row(b, i))
+                                    .is_some_and(|fp| px.all_background(&fp))
+                            });
+                }
+            }
+            layer
+        })
+        .collect();
+    let mut outside = 0;
+    for (k, layer) in hull.iter().enumerate() {
+        for (idx, &inside) in layer.iter().enumerate() {
+            if !inside {
+                model.clear([idx % nx, idx / nx, k]);
+                outside += 1;
+            }
+        }
+    }
+    outside
+}
+
 /// Space carving by repeated plane sweeps along +-x, +-y and +-z.
 ///
 /// The model starts full; voxels that some view's mask shows as background are carved
@@ -57,44 +114,13 @@ pub fn space_carving(
         .collect();
     let pixels: Vec<Pixels<'_>> = views.iter().map(Pixels::of).collect();
     let centres: Vec<_> = projectors.iter().map(|p| p.centre).collect();
-    let [nx, ny, nz] = grid.dims();
     let mut model = VoxelModel::full(*grid);
     let mut stats = KernelStats {
         voxels: grid.len(),
         ..KernelStats::default()
     };
 
-    // The visual hull.
-    let hull: Vec<Vec<bool>> = (0..nz)
-        .into_par_iter()
-        .map(|k| {
-            let mut layer = vec![true; nx * ny];
-            for j in 0..ny {
-                let bases: Vec<[f32; 3]> =
-                    projectors.iter().map(|p| p.row_base(grid, j, k)).collect();
-                for i in 0..nx {
-                    layer[j * nx + i] =
-                        !projectors
-                            .iter()
-                            .zip(&pixels)
-                            .zip(&bases)
-                            .any(|((p, px), b)| {
-                                p.footprint(p.along_row(b, i))
-                                    .is_some_and(|fp| px.all_background(&fp))
-                            });
-                }
-            }
-            layer
-        })
-        .collect();
-    for (k, layer) in hull.iter().enumerate() {
-        for (idx, &inside) in layer.iter().enumerate() {
-            if !inside {
-                model.occupied[[k, idx / nx, idx % nx]] = false;
-                stats.silhouette_rejected += 1;
-            }
-        }
-    }
+    stats.silhouette_rejected = carve_hull(&mut model, &projectors, &pixels);
 
     let mut claimed: Vec<Vec<u8>> = pixels.iter().map(|p| vec![0u8; p.rgb.len() / 3]).collect();
     for _pass in 0..params.max_passes {

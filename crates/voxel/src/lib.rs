@@ -55,7 +55,7 @@ pub mod metrics;
 pub mod ply;
 pub mod raycast;
 
-pub use carving::{CarvingParams, space_carving};
+pub use carving::{CarvingParams, space_carving, visual_hull};
 pub use coloring::{
     ColoringParams, KernelStats, Reconstruction, check_cameras_above, voxel_coloring,
     voxel_coloring_reference,

@@ -10,14 +10,17 @@ use std::path::Path;
 
 use aibr_camera::readers::read_middlebury_par;
 use aibr_camera::{Aabb, Angle, Camera, ImageSize, fit_ring};
-use aibr_voxel::foreground::{DarkBackground, dark_background_mask};
+use aibr_voxel::foreground::{DarkBackground, clip_to_volume, dark_background_mask};
 use aibr_voxel::metrics::silhouette_agreement;
 use aibr_voxel::{
     CarvingParams, ColoringParams, Criterion, Error, Reconstruction, View, VoxelGrid,
-    space_carving, voxel_coloring,
+    space_carving, visual_hull, voxel_coloring,
 };
 use image::{GrayImage, RgbImage};
 use nalgebra::Point3;
+
+/// Margin around the READMEs' tight boxes, metres (the grids and the silhouette clipping).
+const MARGIN: f64 = 0.003;
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
@@ -50,6 +53,12 @@ fn load(
     let views = read_middlebury_par(dir.join(par))?;
     let poses: Vec<_> = views.iter().map(|v| v.cam_from_world).collect();
     let ring = fit_ring(&poses)?;
+    // The README's box, in the turntable frame: the box around its eight corners, with the
+    // margin the tests' grids add.
+    let b = Aabb::new(Point3::from(box_min), Point3::from(box_max))?;
+    let volume = Aabb::around(b.corners().iter().map(|c| ring.turntable_from_world * c))
+        .ok_or("empty box")?
+        .expanded(MARGIN);
     let mut cameras = Vec::new();
     let mut images = Vec::new();
     let mut masks = Vec::new();
@@ -59,14 +68,14 @@ fn load(
         let camera = v
             .camera(size)?
             .with_pose(ring.to_turntable(&v.cam_from_world));
-        masks.push(dark_background_mask(&image, &DarkBackground::default()));
+        // Thresholding also marks a lit part of the gantry beside the temple in a few views;
+        // the object is inside its box, so the silhouette is too.
+        let mut mask = dark_background_mask(&image, &DarkBackground::default());
+        clip_to_volume(&mut mask, &camera, &volume)?;
+        masks.push(mask);
         cameras.push(camera);
         images.push(image);
     }
-    // The README's box, in the turntable frame: the box around its eight corners.
-    let b = Aabb::new(Point3::from(box_min), Point3::from(box_max))?;
-    let volume = Aabb::around(b.corners().iter().map(|c| ring.turntable_from_world * c))
-        .ok_or("empty box")?;
     Ok(Dataset {
         cameras,
         images,
@@ -124,7 +133,7 @@ fn dino_by_voxel_coloring() -> TestResult {
         .map(|l| l.trim().to_owned())
         .filter(|l| !l.is_empty())
         .collect();
-    let grid = VoxelGrid::with_resolution(data.volume.expanded(0.003), 128)?;
+    let grid = VoxelGrid::with_resolution(data.volume, 128)?;
     let start = std::time::Instant::now();
     let params = ColoringParams {
         criterion: real_data_criterion(30.0),
@@ -158,7 +167,7 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
         [-0.073568, 0.021728, -0.012445],
         [0.028855, 0.181892, 0.062736],
     )?;
-    let grid = VoxelGrid::with_resolution(data.volume.expanded(0.003), 128)?;
+    let grid = VoxelGrid::with_resolution(data.volume, 128)?;
     let top = grid.bounds().max.z;
     let highest = data
         .cameras
@@ -186,11 +195,32 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
         100.0 * worst,
         100.0 * spill
     );
-    // The target is 95% coverage in every view; space carving reaches it in 11 of
-    // 16 views, not on the sparsely covered side of the ring (see docs/results.md). These
-    // bounds guard what it does reach.
-    assert!(mean >= 0.90, "mean coverage {mean}");
-    assert!(worst >= 0.70, "coverage {worst}");
+    // No model that respects every silhouette covers more of a view's silhouette than the
+    // visual hull does: where the hull itself falls short, the silhouettes disagree (parts
+    // of the gantry inside the box's projection in some views). The 95% is reached
+    // in 12 of 16 views; in the others carving stays within 4.5 points of the hull (it
+    // loses 1.1-3.8 there, docs/results.md).
+    let hull = visual_hull(&grid, &data.views())?;
+    for (i, camera) in data.cameras.iter().enumerate() {
+        let carved = silhouette_agreement(&out.model.depth_map(camera), &data.masks[i]);
+        let bound = silhouette_agreement(&hull.depth_map(camera), &data.masks[i]);
+        eprintln!(
+            "  {}: coverage {:.1}% (visual hull {:.1}%), spill {:.1}%",
+            data.names[i],
+            100.0 * carved.coverage,
+            100.0 * bound.coverage,
+            100.0 * carved.spill
+        );
+        assert!(
+            carved.coverage >= 0.95 || carved.coverage >= bound.coverage - 0.045,
+            "{}: coverage {} against the hull's {}",
+            data.names[i],
+            carved.coverage,
+            bound.coverage
+        );
+    }
+    assert!(mean >= 0.95, "mean coverage {mean}");
+    assert!(worst >= 0.90, "coverage {worst}");
     assert!(spill <= 0.10, "spill {spill}");
     Ok(())
 }
