@@ -8,7 +8,7 @@ use aibr_camera::readers::read_middlebury_par;
 use aibr_camera::{
     Aabb, Angle, CalibratedPose, Camera, CircularMotion, ImageSize, PanRange, fit_ring,
 };
-use aibr_voxel::foreground::{DarkBackground, dark_background_mask};
+use aibr_voxel::foreground::{DarkBackground, clip_to_volume, dark_background_mask};
 use image::{GrayImage, RgbImage};
 use nalgebra::Point3;
 
@@ -26,7 +26,8 @@ pub struct RecordedView {
     pub camera: Camera,
     /// The image.
     pub image: RgbImage,
-    /// Its silhouette (dark background thresholded, as the Middlebury README suggests).
+    /// Its silhouette (dark background thresholded, as the Middlebury README suggests, and
+    /// clipped to the projection of the README's bounding box when the folder gives one).
     pub mask: GrayImage,
 }
 
@@ -101,6 +102,12 @@ impl ReplayRig {
             })?;
         let records = read_middlebury_par(&par)?;
         let ring = fit_ring(&records.iter().map(|v| v.cam_from_world).collect::<Vec<_>>())?;
+        // The README's tight box, in the turntable frame, when the folder has one.
+        let volume = std::fs::read_to_string(dir.join("README.txt"))
+            .ok()
+            .and_then(|t| readme_box(&t))
+            .and_then(|b| Aabb::around(b.corners().iter().map(|c| ring.turntable_from_world * c)))
+            .map(|b| b.expanded(0.003));
         let mut views = Vec::with_capacity(records.len());
         for (r, pan) in records.iter().zip(&ring.pan_angles) {
             let path = dir.join(&r.image);
@@ -114,7 +121,11 @@ impl ReplayRig {
             let camera = r
                 .camera(size)?
                 .with_pose(ring.to_turntable(&r.cam_from_world));
-            let mask = dark_background_mask(&image, &DarkBackground::default());
+            let mut mask = dark_background_mask(&image, &DarkBackground::default());
+            // Thresholding also marks lit parts of the gantry; the object is in its box.
+            if let Some(volume) = &volume {
+                clip_to_volume(&mut mask, &camera, volume)?;
+            }
             views.push(RecordedView {
                 name: r.image.clone(),
                 pan: *pan,
@@ -180,11 +191,6 @@ impl ReplayRig {
             .map(|w| w[1] - w[0])
             .filter(|d| *d > 1e-9)
             .fold(f64::INFINITY, f64::min);
-        let volume = std::fs::read_to_string(dir.join("README.txt"))
-            .ok()
-            .and_then(|t| readme_box(&t))
-            .and_then(|b| Aabb::around(b.corners().iter().map(|c| ring.turntable_from_world * c)))
-            .map(|b| b.expanded(0.003));
         let n = views.len();
         Ok(ReplayRig {
             data: Arc::new(Data {

@@ -3,13 +3,14 @@
 //!
 //! `cargo run --release -p aibr-render --example leave_one_out -- [DIR] [RESOLUTION]`
 //! (default: `$AIBR_DATA_DIR/middlebury-templeRing`, 96). The ring frame comes from
-//! `aibr_camera::fit_ring`; silhouettes by the README's recipe. Cameras are not all above
+//! `aibr_camera::fit_ring`; silhouettes by the README's recipe, clipped to the projection of
+//! the README's bounding box (templeRing's box is built in). Cameras are not all above
 //! the object's box, so the model is made by space carving.
 
 use aibr_camera::readers::read_middlebury_par;
 use aibr_camera::{Aabb, ImageSize, fit_ring};
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
-use aibr_voxel::foreground::{DarkBackground, dark_background_mask};
+use aibr_voxel::foreground::{DarkBackground, clip_to_volume, dark_background_mask};
 use aibr_voxel::{CarvingParams, View, VoxelGrid, space_carving};
 use nalgebra::Point3;
 
@@ -39,18 +40,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         images.push(image);
     }
-    let masks: Vec<_> = images
-        .iter()
-        .map(|i| dark_background_mask(i, &DarkBackground::default()))
-        .collect();
     // templeRing's README box, in the data set's frame.
     let b = Aabb::new(
         Point3::new(-0.023121, -0.038009, -0.091940),
         Point3::new(0.078626, 0.121636, -0.017395),
     )?;
-    let volume =
-        Aabb::around(b.corners().iter().map(|c| ring.turntable_from_world * c)).ok_or("box")?;
-    let grid = VoxelGrid::with_resolution(volume.expanded(0.003), resolution)?;
+    let volume = Aabb::around(b.corners().iter().map(|c| ring.turntable_from_world * c))
+        .ok_or("box")?
+        .expanded(0.003);
+    // Thresholding also marks lit parts of the gantry; the object is inside its box.
+    let mut masks = Vec::new();
+    for (image, camera) in images.iter().zip(&cameras) {
+        let mut mask = dark_background_mask(image, &DarkBackground::default());
+        clip_to_volume(&mut mask, camera, &volume)?;
+        masks.push(mask);
+    }
+    let grid = VoxelGrid::with_resolution(volume, resolution)?;
     let mut values = Vec::new();
     for held in 0..views.len() {
         let others: Vec<usize> = (0..views.len()).filter(|&i| i != held).collect();
