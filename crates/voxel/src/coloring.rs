@@ -247,7 +247,7 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
 }
 
 /// Edge of the square blocks of a layer that the fast kernel culls together, voxels.
-const BLOCK: usize = 4;
+const BLOCK: usize = 8;
 
 /// What one block of a layer decided.
 struct BlockResult {
