@@ -88,6 +88,7 @@ fn intrinsics_on_the_opencv_sample_set() -> TestResult {
     assert!(r["rms"].as_f64().is_some_and(|v| v <= 0.25), "{}", r["rms"]);
     let file = CameraFile::read(&out)?;
     assert_eq!(file.intrinsics.fx, fx);
+    let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
 
@@ -117,6 +118,7 @@ fn bad_sets_are_refused_with_reasons() -> TestResult {
     let txt = dir.join("camera.txt").display().to_string();
     refused(&txt, &[&images[0]], ".yml, .yaml or .json")?;
     assert!(!Path::new(&out).exists(), "nothing is written on failure");
+    let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
 
@@ -223,5 +225,6 @@ fn turntable_from_rendered_boards() -> TestResult {
         "{}",
         text(&o)
     );
+    let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
