@@ -6,11 +6,14 @@
 //!
 //! Environment: `VIEWS=12,24` chooses the view counts; `K` and `RES` set the renderer's `k`
 //! and `resolution_weight`; `TRUEMODEL=1` renders from the true scene voxelised at 128^3
-//! instead of the reconstruction, to separate geometry error from rendering error.
+//! instead of the reconstruction, to separate geometry error from rendering error;
+//! `CRITERION=classic:T` or `CRITERION=angular:T:W` (grey levels, degrees) replaces voxel
+//! coloring's default criterion.
 
+use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
 use aibr_scene::{RenderOptions, catalogue};
-use aibr_voxel::{ColoringParams, View, VoxelGrid, voxel_coloring};
+use aibr_voxel::{ColoringParams, Criterion, View, VoxelGrid, voxel_coloring};
 use image::GenericImage;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -49,7 +52,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 })
                 .collect();
             let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
-            let mut model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
+            let coloring = ColoringParams {
+                criterion: criterion()?,
+                ..ColoringParams::default()
+            };
+            let mut model = voxel_coloring(&grid, &views, &coloring)?.model;
             if std::env::var("TRUEMODEL").is_ok() {
                 // Diagnostic: the true scene voxelised (centre inside an object).
                 model = aibr_voxel::VoxelModel::empty(grid);
@@ -108,4 +115,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
+}
+
+/// The criterion `CRITERION` asks for, or the default.
+fn criterion() -> Result<Criterion, Box<dyn std::error::Error>> {
+    let Ok(spec) = std::env::var("CRITERION") else {
+        return Ok(Criterion::default());
+    };
+    let parts: Vec<&str> = spec.split(':').collect();
+    match parts.as_slice() {
+        ["classic", t] => Ok(Criterion::Classic {
+            threshold: t.parse()?,
+        }),
+        ["angular", t, w] => Ok(Criterion::Angular {
+            threshold: t.parse()?,
+            window: Angle::from_degrees(w.parse()?),
+        }),
+        _ => Err(format!("CRITERION={spec}: expected classic:T or angular:T:W").into()),
+    }
 }
