@@ -289,13 +289,25 @@ impl<'a> Pixels<'a> {
     /// Sum and count of the footprint pixels not yet claimed (and foreground, with a mask).
     #[inline]
     pub(crate) fn gather(&self, fp: &Footprint, claimed: &[u8]) -> ([u32; 3], u32) {
+        self.sum_where(fp, |i| {
+            claimed[i] == 0 && self.mask.is_none_or(|m| m[i] != 0)
+        })
+    }
+
+    /// Sum and count of the footprint pixels (by index) that `open` accepts, in row order.
+    #[inline]
+    pub(crate) fn sum_where(
+        &self,
+        fp: &Footprint,
+        open: impl Fn(usize) -> bool,
+    ) -> ([u32; 3], u32) {
         let mut sum = [0u32; 3];
         let mut n = 0u32;
         for v in fp.v0..=fp.v1 {
             let row = v as usize * self.width;
             for u in fp.u0..=fp.u1 {
                 let i = row + u as usize;
-                if claimed[i] != 0 || self.mask.is_some_and(|m| m[i] == 0) {
+                if !open(i) {
                     continue;
                 }
                 let c = &self.rgb[3 * i..3 * i + 3];
@@ -448,23 +460,7 @@ impl Tiles {
     /// [`Pixels::gather`] with the claims and the mask, from one array.
     #[inline]
     pub(crate) fn gather(&self, px: &Pixels<'_>, fp: &Footprint) -> ([u32; 3], u32) {
-        let mut sum = [0u32; 3];
-        let mut n = 0u32;
-        for v in fp.v0..=fp.v1 {
-            let row = v as usize * self.width;
-            for u in fp.u0..=fp.u1 {
-                let i = row + u as usize;
-                if self.resolved[i] != 0 {
-                    continue;
-                }
-                let c = &px.rgb[3 * i..3 * i + 3];
-                sum[0] += c[0] as u32;
-                sum[1] += c[1] as u32;
-                sum[2] += c[2] as u32;
-                n += 1;
-            }
-        }
-        (sum, n)
+        px.sum_where(fp, |i| self.resolved[i] == 0)
     }
 
     /// Claims the pixels of `fp`; the tile summaries follow at the next [`Tiles::settle`].
