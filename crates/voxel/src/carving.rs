@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::coloring::{KernelStats, Reconstruction};
 use crate::error::Result;
 use crate::grid::{VoxelGrid, VoxelModel};
-use crate::kernel::{Criterion, Pixels, Projector, Sample, View, claim, decide, validate_views};
+use crate::kernel::{Criterion, Pixels, Projector, Sample, View, claim, decide, prepare_views};
 
 /// Parameters of [`space_carving`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,12 +44,7 @@ impl Default for CarvingParams {
 /// Errors: no views, or image or mask sizes that differ from their camera, or distorted
 /// cameras.
 pub fn visual_hull(grid: &VoxelGrid, views: &[View<'_>]) -> Result<VoxelModel> {
-    validate_views(views, 1)?;
-    let projectors: Vec<Projector> = views
-        .iter()
-        .map(|v| Projector::new(v.camera, grid))
-        .collect();
-    let pixels: Vec<Pixels<'_>> = views.iter().map(Pixels::of).collect();
+    let (projectors, pixels) = prepare_views(grid, views, 1)?;
     let mut model = VoxelModel::full(*grid);
     carve_hull(&mut model, &projectors, &pixels);
     Ok(model)
@@ -107,12 +102,7 @@ pub fn space_carving(
     views: &[View<'_>],
     params: &CarvingParams,
 ) -> Result<Reconstruction> {
-    validate_views(views, params.min_views.max(1))?;
-    let projectors: Vec<Projector> = views
-        .iter()
-        .map(|v| Projector::new(v.camera, grid))
-        .collect();
-    let pixels: Vec<Pixels<'_>> = views.iter().map(Pixels::of).collect();
+    let (projectors, pixels) = prepare_views(grid, views, params.min_views.max(1))?;
     let centres: Vec<_> = projectors.iter().map(|p| p.centre).collect();
     let mut model = VoxelModel::full(*grid);
     let mut stats = KernelStats {

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
 use crate::kernel::{
-    Criterion, Footprint, Pixels, Projector, Sample, Tiles, View, claim, decide, validate_views,
+    Criterion, Footprint, Pixels, Projector, Sample, Tiles, View, claim, decide, prepare_views,
 };
 
 /// Parameters of [`voxel_coloring`] and [`voxel_coloring_reference`].
@@ -83,13 +83,8 @@ fn prepare<'a>(
     views: &[View<'a>],
     params: &ColoringParams,
 ) -> Result<Prepared<'a>> {
-    validate_views(views, params.min_views.max(1))?;
+    let (projectors, pixels) = prepare_views(grid, views, params.min_views.max(1))?;
     check_cameras_above(grid, views)?;
-    let projectors: Vec<Projector> = views
-        .iter()
-        .map(|v| Projector::new(v.camera, grid))
-        .collect();
-    let pixels = views.iter().map(Pixels::of).collect();
     let centres = projectors.iter().map(|p| p.centre).collect();
     Ok((projectors, pixels, centres))
 }

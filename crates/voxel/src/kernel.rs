@@ -103,6 +103,21 @@ pub(crate) fn validate_views(views: &[View<'_>], needed: usize) -> Result<()> {
     Ok(())
 }
 
+/// Checks the views (at least `needed` of them) and prepares their projectors into `grid`
+/// and their raw pixels, in view order: what every kernel starts from.
+pub(crate) fn prepare_views<'a>(
+    grid: &VoxelGrid,
+    views: &[View<'a>],
+    needed: usize,
+) -> Result<(Vec<Projector>, Vec<Pixels<'a>>)> {
+    validate_views(views, needed)?;
+    let projectors = views
+        .iter()
+        .map(|v| Projector::new(v.camera, grid))
+        .collect();
+    Ok((projectors, views.iter().map(Pixels::of).collect()))
+}
+
 /// The pixels `[u0, u1] x [v0, v1]` (inclusive) a voxel covers in one view.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Footprint {
@@ -465,10 +480,7 @@ impl Tiles {
 
     /// Claims the pixels of `fp`; the tile summaries follow at the next [`Tiles::settle`].
     pub(crate) fn claim(&mut self, fp: &Footprint) {
-        for v in fp.v0..=fp.v1 {
-            let row = v as usize * self.width;
-            self.resolved[row + fp.u0 as usize..=row + fp.u1 as usize].fill(1);
-        }
+        claim(&mut self.resolved, self.width, fp);
         let (tx0, tx1, ty0, ty1) = Self::range(fp);
         for ty in ty0..=ty1 {
             for tx in tx0..=tx1 {
