@@ -356,9 +356,12 @@ impl<'a> Renderer<'a> {
     ) -> Option<[u8; 3]> {
         let to_eye = eye - p;
         let eye_dist = to_eye.norm();
-        let to_eye = to_eye / eye_dist;
-        // (penalty, source, u, v) of each source that sees p.
-        let mut seen = [(0f64, 0usize, 0f64, 0f64); MAX_CANDIDATES];
+        let inv_eye = 1.0 / eye_dist;
+        let to_eye = to_eye * inv_eye;
+        // Each source that sees p: the vector from p to it (one array per axis, so the
+        // penalties below are computed four sources at a time), its index and (u, v).
+        let mut to_src = [[0f32; MAX_CANDIDATES]; 3];
+        let mut found = [(0usize, 0f64, 0f64); MAX_CANDIDATES];
         let mut n = 0;
         for &(_, i) in candidates {
             let s = &self.sources[i];
@@ -367,61 +370,114 @@ impl<'a> Renderer<'a> {
             if !(z > 0.0) {
                 continue;
             }
-            let (u, v) = (row(&s.p[0]) / z, row(&s.p[1]) / z);
+            let inv_z = 1.0 / z;
+            let (u, v) = (row(&s.p[0]) * inv_z, row(&s.p[1]) * inv_z);
             if !(u >= 0.0 && v >= 0.0 && u <= (s.width - 1) as f64 && v <= (s.height - 1) as f64) {
                 continue;
             }
+            // u, v >= 0 here, so adding a half and truncating rounds them.
             if occlusion {
-                let d = s.depth[(v.round() as usize) * s.width as usize + u.round() as usize];
+                let d = s.depth[((v + 0.5) as usize) * s.width as usize + (u + 0.5) as usize];
                 if z > d as f64 + self.tolerance {
                     continue;
                 }
             }
-            let to_src = s.centre - p;
-            let src_dist = to_src.norm();
-            let angle = (to_src / src_dist - to_eye).norm();
-            let resolution = ((src_dist - eye_dist) / eye_dist).max(0.0);
-            seen[n] = (angle + self.params.resolution_weight * resolution, i, u, v);
+            let t = s.centre - p;
+            for (axis, value) in to_src.iter_mut().zip([t.x, t.y, t.z]) {
+                axis[n] = value as f32;
+            }
+            found[n] = (i, u, v);
             n += 1;
         }
         if n == 0 {
             return None;
         }
-        let seen = &mut seen[..n];
-        seen.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        // Penalty: the angle between the rays from p to the virtual and the source camera (as
+        // the chord of unit vectors) plus the weighted relative excess distance of the source.
+        // Single precision is ample for weights, and lets four sources share each square root.
+        let (ex, ey, ez) = (to_eye.x as f32, to_eye.y as f32, to_eye.z as f32);
+        let (inv_eye, rw) = (inv_eye as f32, self.params.resolution_weight as f32);
+        let mut penalty = [0f32; MAX_CANDIDATES];
+        let [xs, ys, zs] = &to_src;
+        for (((x, y), z), pen) in xs
+            .chunks_exact(4)
+            .zip(ys.chunks_exact(4))
+            .zip(zs.chunks_exact(4))
+            .zip(penalty.chunks_exact_mut(4))
+            .take(n.div_ceil(4))
+        {
+            for l in 0..4 {
+                let dist = (x[l] * x[l] + y[l] * y[l] + z[l] * z[l]).sqrt();
+                let inv = 1.0 / dist;
+                let (ax, ay, az) = (x[l] * inv - ex, y[l] * inv - ey, z[l] * inv - ez);
+                let angle = (ax * ax + ay * ay + az * az).sqrt();
+                pen[l] = angle + rw * (dist * inv_eye - 1.0).max(0.0);
+            }
+        }
+        // The sources in penalty order; ties keep the candidates' order.
+        let mut order = [0u8; MAX_CANDIDATES];
+        for j in 0..n {
+            let mut at = j;
+            while at > 0 && penalty[order[at - 1] as usize] > penalty[j] {
+                order[at] = order[at - 1];
+                at -= 1;
+            }
+            order[at] = j as u8;
+        }
         let k = self.params.k.min(n);
+        let penalty_at = |rank: usize| penalty[order[rank] as usize] as f64;
         // The (k+1)-th penalty is where weights reach zero; without one, twice the k-th.
         let threshold = if n > k {
-            seen[k].0
+            penalty_at(k)
         } else {
-            2.0 * seen[k - 1].0
+            2.0 * penalty_at(k - 1)
         } + 1e-12;
+        let inv_threshold = 1.0 / threshold;
         let (mut acc, mut total) = ([0f64; 3], 0f64);
-        for &(penalty, i, u, v) in &seen[..k] {
+        for rank in 0..k {
+            let pen = penalty_at(rank);
+            let (i, u, v) = found[order[rank] as usize];
             // Reaches zero at the threshold, and grows without bound as the penalty vanishes, so
             // a virtual camera at a source reproduces it (epipole consistency).
-            let wgt = (1.0 - penalty / threshold).max(0.0) / (penalty + 1e-6) + 1e-12;
+            let wgt = (1.0 - pen * inv_threshold).max(0.0) / (pen + 1e-6) + 1e-12;
             let c = bilinear(&self.sources[i].image, u, v);
             for ch in 0..3 {
                 acc[ch] += wgt * c[ch];
             }
             total += wgt;
         }
-        Some(acc.map(|a| (a / total).round().clamp(0.0, 255.0) as u8))
+        let inv_total = 1.0 / total;
+        // A weighted mean of bytes: in [0, 255] up to rounding, and `as` saturates.
+        Some(acc.map(|a| (a * inv_total + 0.5) as u8))
     }
 }
 
-/// Bilinear sample at `(u, v)` (pixel centres at integers), inside the image.
+/// Bilinear sample at `(u, v)` (pixel centres at integers, `0 <= u <= width - 1`,
+/// `0 <= v <= height - 1`) of an image at least 2 pixels wide and high.
+#[inline]
 fn bilinear(img: &RgbImage, u: f64, v: f64) -> [f64; 3] {
     let (w, h) = (img.width() as usize, img.height() as usize);
-    let x0 = (u.floor() as usize).min(w.saturating_sub(2));
-    let y0 = (v.floor() as usize).min(h.saturating_sub(2));
-    let (fx, fy) = (u - x0 as f64, v - y0 as f64);
     let raw = img.as_raw();
-    let at = |x: usize, y: usize, c: usize| raw[(y.min(h - 1) * w + x.min(w - 1)) * 3 + c] as f64;
-    std::array::from_fn(|c| {
-        let top = at(x0, y0, c) * (1.0 - fx) + at(x0 + 1, y0, c) * fx;
-        let bottom = at(x0, y0 + 1, c) * (1.0 - fx) + at(x0 + 1, y0 + 1, c) * fx;
-        top * (1.0 - fy) + bottom * fy
-    })
+    if w < 2 || h < 2 {
+        let (x, y) = (
+            (u as usize).min(w.saturating_sub(1)),
+            (v as usize).min(h.saturating_sub(1)),
+        );
+        let at = (y * w + x) * 3;
+        return std::array::from_fn(|c| raw.get(at + c).copied().unwrap_or(0) as f64);
+    }
+    // Truncation is the floor for u, v >= 0; the last pixel samples the last cell's far edge.
+    let x0 = (u as usize).min(w - 2);
+    let y0 = (v as usize).min(h - 2);
+    let (fx, fy) = (u - x0 as f64, v - y0 as f64);
+    let top = (y0 * w + x0) * 3;
+    let bottom = top + w * 3;
+    let (t, b) = (&raw[top..top + 6], &raw[bottom..bottom + 6]);
+    let mut out = [0f64; 3];
+    for (c, o) in out.iter_mut().enumerate() {
+        let upper = t[c] as f64 + (t[c + 3] as f64 - t[c] as f64) * fx;
+        let lower = b[c] as f64 + (b[c + 3] as f64 - b[c] as f64) * fx;
+        *o = upper + (lower - upper) * fy;
+    }
+    out
 }
