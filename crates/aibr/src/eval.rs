@@ -133,6 +133,19 @@ pub struct Checkpoint {
     pub worst_arc_psnr: f64,
     /// And the arc, as its end angles.
     pub worst_arc: (Angle, Angle),
+    /// Every novel view evaluated, in pan order.
+    pub novel: Vec<NovelView>,
+}
+
+/// The measurement of one novel view.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NovelView {
+    /// Its pan angle.
+    pub pan: Angle,
+    /// Masked PSNR against the truth, dB.
+    pub psnr: f64,
+    /// Masked SSIM.
+    pub ssim: f64,
 }
 
 /// One strategy's checkpoints.
@@ -330,7 +343,7 @@ fn measure<R: EvalRig>(
     pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
     // Per arc between neighbouring views: the PSNR of its novel views.
     let mut arcs: Vec<Vec<f64>> = vec![Vec::new(); pans.len().saturating_sub(1)];
-    let (mut psnr_sum, mut ssim_sum, mut n) = (0.0, 0.0, 0usize);
+    let mut novel = Vec::new();
     for (pan, camera) in rig.novel_views(&pans, params.step)? {
         let (truth, mask) = match truths.entry(pan.radians().to_bits()) {
             Entry::Occupied(e) => e.into_mut(),
@@ -339,9 +352,7 @@ fn measure<R: EvalRig>(
         let view = renderer.render(&camera)?;
         let psnr = metrics::psnr(truth, &view.rgb, Some(mask))?;
         let ssim = metrics::ssim(truth, &view.rgb, Some(mask))?;
-        psnr_sum += psnr;
-        ssim_sum += ssim;
-        n += 1;
+        novel.push(NovelView { pan, psnr, ssim });
         if let Some(i) = pans
             .windows(2)
             .position(|w| pan.radians() > w[0].radians() && pan.radians() < w[1].radians())
@@ -359,13 +370,16 @@ fn measure<R: EvalRig>(
             worst = (mean, (pans[i], pans[i + 1]));
         }
     }
+    let n = novel.len().max(1) as f64;
+    novel.sort_by(|a, b| a.pan.radians().total_cmp(&b.pan.radians()));
     Ok(Checkpoint {
         views: views.len(),
         pans,
-        evaluated: n,
-        mean_psnr: psnr_sum / n.max(1) as f64,
-        mean_ssim: ssim_sum / n.max(1) as f64,
+        evaluated: novel.len(),
+        mean_psnr: novel.iter().map(|v| v.psnr).sum::<f64>() / n,
+        mean_ssim: novel.iter().map(|v| v.ssim).sum::<f64>() / n,
         worst_arc_psnr: worst.0,
         worst_arc: worst.1,
+        novel,
     })
 }

@@ -870,6 +870,11 @@ fn eval(a: EvalArgs) -> Result<()> {
                         "worst_arc_psnr_db": c.worst_arc_psnr,
                         "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
                         "pans_deg": c.pans.iter().map(|p| p.degrees()).collect::<Vec<_>>(),
+                        "novel_views": c.novel.iter().map(|v| serde_json::json!({
+                            "pan_deg": v.pan.degrees(),
+                            "masked_psnr_db": v.psnr,
+                            "masked_ssim": v.ssim,
+                        })).collect::<Vec<_>>(),
                     })).collect::<Vec<_>>(),
                 })
             })

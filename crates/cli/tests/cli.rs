@@ -505,6 +505,18 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
                     .as_f64()
                     .is_some_and(|w| w <= psnr + 1e-9)
             );
+            // The per-view figures are the ones the mean is made of.
+            let novel = c["novel_views"].as_array().ok_or("no novel views")?;
+            assert_eq!(Some(novel.len() as u64), c["evaluated_views"].as_u64());
+            let values: Vec<f64> = novel
+                .iter()
+                .filter_map(|v| v["masked_psnr_db"].as_f64())
+                .collect();
+            assert_eq!(values.len(), novel.len());
+            let mean = values.iter().sum::<f64>() / values.len() as f64;
+            assert!((mean - psnr).abs() < 1e-9, "{mean} vs {psnr}");
+            let pans: Vec<f64> = novel.iter().filter_map(|v| v["pan_deg"].as_f64()).collect();
+            assert!(pans.windows(2).all(|w| w[0] < w[1]), "{pans:?}");
         }
     }
     let out = aibr()
