@@ -215,6 +215,78 @@ fn psnr_plot(results: &[StrategyEval]) -> Result<String> {
     Ok(svg)
 }
 
+/// Masked PSNR of every novel view against its pan angle at the last checkpoint, with each
+/// strategy's capture positions as ticks along the bottom: where a strategy's views went and
+/// what they bought there.
+fn angle_plot(results: &[StrategyEval], range: (f64, f64)) -> Result<String> {
+    let last: Vec<(Strategy, &Checkpoint)> = results
+        .iter()
+        .filter_map(|r| r.checkpoints.last().map(|c| (r.strategy, c)))
+        .collect();
+    let values = last
+        .iter()
+        .flat_map(|(_, c)| c.novel.iter().map(|v| v.psnr));
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if !lo.is_finite() || !hi.is_finite() {
+        bail!("no novel views to plot");
+    }
+    let views = last.iter().map(|(_, c)| c.views).max().unwrap_or(0);
+    let (y0, y1) = (lo.floor() - 2.0, hi.ceil() + 1.0);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (760, 420)).into_drawing_area();
+        root.fill(&WHITE).map_err(svg_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("masked PSNR of each novel view, {views} views"),
+                ("sans-serif", 16),
+            )
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(48)
+            .build_cartesian_2d(range.0..range.1, y0..y1)
+            .map_err(svg_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("pan angle (degrees)")
+            .y_desc("PSNR (dB)")
+            .draw()
+            .map_err(svg_error)?;
+        for (k, (strategy, c)) in last.iter().enumerate() {
+            let colour = colour(*strategy);
+            let line: Vec<(f64, f64)> = c.novel.iter().map(|v| (v.pan.degrees(), v.psnr)).collect();
+            chart
+                .draw_series(LineSeries::new(line, colour.stroke_width(2)))
+                .map_err(svg_error)?
+                .label(format!("{} ({} views)", strategy.name(), c.views))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+                });
+            // Capture positions: one row of ticks per strategy along the bottom.
+            let base = y0 + 0.5 + 0.8 * k as f64;
+            chart
+                .draw_series(c.pans.iter().map(|p| {
+                    PathElement::new(
+                        vec![(p.degrees(), base), (p.degrees(), base + 0.6)],
+                        colour.stroke_width(2),
+                    )
+                }))
+                .map_err(svg_error)?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE)
+            .border_style(BLACK)
+            .draw()
+            .map_err(svg_error)?;
+        root.present().map_err(svg_error)?;
+    }
+    Ok(svg)
+}
+
 /// The per-pair consistency scores of a session (what the active planner ranked).
 fn scores_plot(pans: &[Angle], scores: &[aibr::consistency::PairScore]) -> Result<String> {
     let bars: Vec<(f64, f64, f64)> = scores
@@ -310,6 +382,10 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
         polar_plot(&results, range_deg)?.as_bytes(),
     )?;
     write(&a.out.join("psnr.svg"), psnr_plot(&results)?.as_bytes())?;
+    write(
+        &a.out.join("angles.svg"),
+        angle_plot(&results, range_deg)?.as_bytes(),
+    )?;
 
     // The final sessions: the active one, and the uniform one of the same size.
     let max = params.capture.max;
@@ -424,6 +500,8 @@ and compares it with the ground truth inside the object mask. Made by <code>aibr
 {table}
 <div class="plots"><h2>Capture positions</h2><img src="positions.svg" alt="capture positions">
 <h2>PSNR against views</h2><img src="psnr.svg" alt="PSNR against views">
+<h2>PSNR against pan angle</h2><p>Every novel view at the budget; the ticks along the bottom
+are each strategy's capture positions.</p><img src="angles.svg" alt="PSNR against pan angle">
 <h2>Consistency scores</h2><img src="scores.svg" alt="consistency scores per pair"></div>
 <h2>Novel views</h2>
 {panels}
