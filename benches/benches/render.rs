@@ -1,5 +1,6 @@
 //! Renderer bench (group `render`, entry `vga`): a 640x480 frame from 48 views of `lambertian`
-//! and its 128^3 model, half-way between two captures, into preallocated buffers.
+//! and its 128^3 model, half-way between two captures, into preallocated buffers; entry
+//! `vga_unrefined` renders the same frame without the depth refinement.
 //!
 //! `cargo bench -p aibr-benches --bench render`
 
@@ -52,6 +53,23 @@ fn bench(c: &mut Criterion) {
     g.bench_function("vga", |b| {
         b.iter(|| renderer.render_into(&camera, &mut buffers))
     });
+    // The same frame without the depth refinement (`RenderParams::refine: None`).
+    let plain = RenderParams {
+        refine: None,
+        ..RenderParams::default()
+    };
+    let sources = shots
+        .iter()
+        .map(|s| SourceView {
+            camera: s.camera.clone(),
+            image: s.image.clone(),
+        })
+        .collect();
+    if let Ok(unrefined) = Renderer::new(&out.model, sources, plain) {
+        g.bench_function("vga_unrefined", |b| {
+            b.iter(|| unrefined.render_into(&camera, &mut buffers))
+        });
+    }
     g.finish();
 }
 

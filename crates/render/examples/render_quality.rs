@@ -9,6 +9,8 @@
 //! instead of the reconstruction, to separate geometry error from rendering error;
 //! `CRITERION=classic:T` or `CRITERION=angular:T:W` (grey levels, degrees) replaces voxel
 //! coloring's default criterion.
+//! `REFINE=0` turns the renderer's depth refinement off, `REFINE=front:back:steps:radius`
+//! sets it (voxels, voxels, depths, pixels).
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -85,6 +87,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if let Some(r) = std::env::var("RES").ok().and_then(|k| k.parse().ok()) {
                 params.resolution_weight = r;
             }
+            if let Ok(spec) = std::env::var("REFINE") {
+                params.refine = refinement(&spec)?;
+            }
             let renderer = Renderer::new(&model, sources, params)?;
             let (mut sum, mut worst, mut ssim_sum, mut geo, mut m) =
                 (0.0, f64::INFINITY, 0.0, 0.0, 0);
@@ -132,5 +137,23 @@ fn criterion() -> Result<Criterion, Box<dyn std::error::Error>> {
             window: Angle::from_degrees(w.parse()?),
         }),
         _ => Err(format!("CRITERION={spec}: expected classic:T or angular:T:W").into()),
+    }
+}
+
+/// `REFINE=0` (off), `REFINE=1` (defaults) or `REFINE=front:back:steps:radius`.
+fn refinement(
+    spec: &str,
+) -> Result<Option<aibr_render::DepthRefinement>, Box<dyn std::error::Error>> {
+    let parts: Vec<&str> = spec.split(':').collect();
+    match parts.as_slice() {
+        ["0"] => Ok(None),
+        ["1"] => Ok(Some(aibr_render::DepthRefinement::default())),
+        [f, b, s, r] => Ok(Some(aibr_render::DepthRefinement {
+            front_voxels: f.parse()?,
+            back_voxels: b.parse()?,
+            steps: s.parse()?,
+            radius: r.parse()?,
+        })),
+        _ => Err(format!("REFINE={spec}: expected 0, 1 or front:back:steps:radius").into()),
     }
 }

@@ -3,8 +3,11 @@
 //! - [`Renderer`]: renders a virtual camera from captured views plus a voxel model
 //!   (section 2.2 of the paper): per pixel the model is ray cast for the surface point, and
 //!   the captured rays through it are blended with unstructured-lumigraph weights (Buehler et
-//!   al. 2001), skipping sources that do not see the point. Where the model has no surface the
-//!   focal surface at the object's depth stands in. Each pixel reports its [`Coverage`].
+//!   al. 2001), skipping sources that do not see the point. By default each pixel's depth is
+//!   then refined near the model's surface where the two nearest sources agree best
+//!   ([`DepthRefinement`]), which undoes most of voxel coloring's fattening. Where the model
+//!   has no surface the focal surface at the object's depth stands in. Each pixel reports its
+//!   [`Coverage`].
 //! - [`metrics`]: PSNR and SSIM, optionally inside a mask, checked against scikit-image.
 //! - [`write_depth_exr`]: depth as OpenEXR.
 //!
@@ -47,4 +50,6 @@ pub mod renderer;
 
 pub use error::{Error, Result};
 pub use exr_io::write_depth_exr;
-pub use renderer::{Coverage, MAX_CANDIDATES, RenderParams, RenderedView, Renderer, SourceView};
+pub use renderer::{
+    Coverage, DepthRefinement, MAX_CANDIDATES, RenderParams, RenderedView, Renderer, SourceView,
+};

@@ -33,6 +33,44 @@ pub struct RenderParams {
     /// A source sees a surface point when the point is at most this many voxels behind the
     /// source's own depth there (default 2).
     pub occlusion_tolerance_voxels: f64,
+    /// Refine each pixel's depth near the model's surface by photo-consistency (default on,
+    /// with [`DepthRefinement::default`]; `None` renders at the model's surface).
+    pub refine: Option<DepthRefinement>,
+}
+
+/// Depth refinement near the model's surface.
+///
+/// Voxel coloring leaves surfaces a voxel or two in front of where they are (sheets of
+/// photo-consistent voxels, `docs/render.md`). For each pixel that meets the model, depths from
+/// `front_voxels` in front of the hit to `back_voxels` behind it are tried; at each, the two
+/// sources nearest in angle to the virtual camera are sampled and their squared colour
+/// difference summed over a window of neighbouring pixels on the same surface (within 1.5
+/// voxels of the pixel's depth), each at its own depth plus the same offset. The pixel is
+/// blended at the offset where the sources agree best. Only pixels with `Geometry` coverage are
+/// refined, so a search cannot move a pixel onto another surface far away.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DepthRefinement {
+    /// Nearest depth tried, in voxels in front of the model's first hit (default 0.5).
+    pub front_voxels: f64,
+    /// Farthest depth tried, in voxels behind the hit (default 4).
+    pub back_voxels: f64,
+    /// Depths tried, evenly spaced (default 7, three quarters of a voxel apart; at least 2,
+    /// at most 64).
+    pub steps: usize,
+    /// Half-width of the square window the costs are summed over (default 1: 3x3 pixels; at
+    /// most 16).
+    pub radius: usize,
+}
+
+impl Default for DepthRefinement {
+    fn default() -> Self {
+        DepthRefinement {
+            front_voxels: 0.5,
+            back_voxels: 4.0,
+            steps: 7,
+            radius: 1,
+        }
+    }
 }
 
 impl Default for RenderParams {
@@ -42,6 +80,7 @@ impl Default for RenderParams {
             candidates: 4,
             resolution_weight: 0.2,
             occlusion_tolerance_voxels: 2.0,
+            refine: Some(DepthRefinement::default()),
         }
     }
 }
@@ -74,6 +113,11 @@ pub struct RenderedView {
     pub coverage: GrayImage,
     /// Per pixel, the nearest splatted surface-voxel depth of the last frame (scratch).
     splat: Vec<f32>,
+    /// The refinement's scratch (empty unless refining): per pixel its slot in `refined`
+    /// (`u32::MAX` for none), the refined pixels, and per refined pixel its cost per depth.
+    slots: Vec<u32>,
+    refined: Vec<u32>,
+    costs: Vec<f32>,
 }
 
 impl RenderedView {
@@ -84,6 +128,9 @@ impl RenderedView {
             depth: DepthMap::new(size.width, size.height),
             coverage: GrayImage::new(size.width, size.height),
             splat: vec![f32::INFINITY; size.pixel_count()],
+            slots: Vec::new(),
+            refined: Vec::new(),
+            costs: Vec::new(),
         }
     }
 
@@ -158,6 +205,32 @@ impl<'a> Renderer<'a> {
                 value: params.candidates as f64,
                 reason: "k and candidates must be positive, candidates at most 16",
             });
+        }
+        if let Some(r) = params.refine {
+            if !(2..=64).contains(&r.steps) {
+                return Err(Error::InvalidParameter {
+                    name: "refine.steps",
+                    value: r.steps as f64,
+                    reason: "between 2 and 64 depths",
+                });
+            }
+            if !(r.front_voxels.is_finite()
+                && r.back_voxels.is_finite()
+                && -r.front_voxels < r.back_voxels)
+            {
+                return Err(Error::InvalidParameter {
+                    name: "refine.back_voxels",
+                    value: r.back_voxels,
+                    reason: "the searched depths must be finite and not empty",
+                });
+            }
+            if r.radius > 16 {
+                return Err(Error::InvalidParameter {
+                    name: "refine.radius",
+                    value: r.radius as f64,
+                    reason: "at most 16 pixels",
+                });
+            }
         }
         let grid = model.grid();
         let surface = model.surface_voxels();
@@ -313,7 +386,146 @@ impl<'a> Renderer<'a> {
                     cov_row[u] = coverage as u8;
                 }
             });
+        if let Some(refine) = self.params.refine {
+            if candidates.len() >= 2 && pinhole {
+                self.refine(camera, &rot, refine, candidates, out);
+            }
+        }
         Ok(())
+    }
+
+    /// The depth refinement pass (see [`DepthRefinement`]) over a rendered frame.
+    fn refine(
+        &self,
+        camera: &Camera,
+        rot: &nalgebra::Rotation3<f64>,
+        refine: DepthRefinement,
+        candidates: &[(f64, usize)],
+        out: &mut RenderedView,
+    ) {
+        let (w, h) = (camera.size.width as usize, camera.size.height as usize);
+        let steps = refine.steps;
+        let s = self.model.grid().voxel_size();
+        let span = refine.front_voxels + refine.back_voxels;
+        let offsets: [f64; 64] = std::array::from_fn(|k| {
+            s * (-refine.front_voxels + span * k as f64 / (steps - 1) as f64)
+        });
+        let centre = camera.centre();
+        let ray = |u: usize, v: usize| {
+            let n = camera
+                .intrinsics
+                .normalized_from_pixel(Point2::new(u as f64, v as f64));
+            rot * Vector3::new(n.x, n.y, 1.0)
+        };
+        let (a, b) = (
+            &self.sources[candidates[0].1],
+            &self.sources[candidates[1].1],
+        );
+        // The point `p + t d` in a source, homogeneous: `base + t slope`.
+        let line = |src: &Source, p: &Point3<f64>, d: &Vector3<f64>| -> [[f64; 3]; 2] {
+            [
+                std::array::from_fn(|r| {
+                    let m = &src.p[r];
+                    m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3]
+                }),
+                std::array::from_fn(|r| {
+                    let m = &src.p[r];
+                    m[0] * d.x + m[1] * d.y + m[2] * d.z
+                }),
+            ]
+        };
+        let sample = |src: &Source, [base, slope]: &[[f64; 3]; 2], t: f64| {
+            let z = base[2] + t * slope[2];
+            if !(z > 0.0) {
+                return None;
+            }
+            let inv = 1.0 / z;
+            let (u, v) = (
+                (base[0] + t * slope[0]) * inv,
+                (base[1] + t * slope[1]) * inv,
+            );
+            let inside =
+                u >= 0.0 && v >= 0.0 && u <= (src.width - 1) as f64 && v <= (src.height - 1) as f64;
+            inside.then(|| bilinear(&src.image, u, v))
+        };
+        // The frame's depths, read while the colours and depths are rewritten, and the
+        // Geometry pixels in a compact list with their cost slots.
+        out.splat.copy_from_slice(out.depth.as_raw());
+        let geometry = Coverage::Geometry as u8;
+        out.slots.resize(w * h, u32::MAX);
+        out.refined.clear();
+        for (i, (slot, &c)) in out.slots.iter_mut().zip(out.coverage.as_raw()).enumerate() {
+            *slot = if c == geometry {
+                out.refined.push(i as u32);
+                (out.refined.len() - 1) as u32
+            } else {
+                u32::MAX
+            };
+        }
+        out.costs.resize(out.refined.len() * steps, 0.0);
+        let depths = &out.splat;
+        out.costs
+            .par_chunks_mut(steps)
+            .zip(out.refined.par_iter())
+            .for_each(|(cell, &i)| {
+                let (u, v) = (i as usize % w, i as usize / w);
+                let dir = ray(u, v);
+                let p = centre + dir * depths[i as usize] as f64;
+                let (la, lb) = (line(a, &p, &dir), line(b, &p, &dir));
+                for (cost, &t) in cell.iter_mut().zip(&offsets) {
+                    *cost = match (sample(a, &la, t), sample(b, &lb, t)) {
+                        (Some(ca), Some(cb)) => {
+                            (0..3).map(|c| (ca[c] - cb[c]).powi(2)).sum::<f64>() as f32
+                        }
+                        // Off a source: as bad as the worst colour difference.
+                        _ => 3.0 * 255.0 * 255.0,
+                    };
+                }
+            });
+        let (costs, slots) = (&out.costs, &out.slots);
+        let same_surface = (1.5 * s) as f32;
+        let r = refine.radius;
+        out.rgb
+            .par_chunks_mut(w * 3)
+            .zip(out.depth.par_chunks_mut(w))
+            .enumerate()
+            .for_each(|(v, (rgb_row, depth_row))| {
+                let mut total = [0f32; 64];
+                for u in 0..w {
+                    if slots[v * w + u] == u32::MAX {
+                        continue;
+                    }
+                    let z = depths[v * w + u];
+                    total[..steps].fill(0.0);
+                    for vv in v.saturating_sub(r)..(v + r + 1).min(h) {
+                        for uu in u.saturating_sub(r)..(u + r + 1).min(w) {
+                            let i = vv * w + uu;
+                            let slot = slots[i] as usize;
+                            if slot == u32::MAX as usize || (depths[i] - z).abs() > same_surface {
+                                continue;
+                            }
+                            let cell = &costs[slot * steps..(slot + 1) * steps];
+                            for (t, c) in total.iter_mut().zip(cell) {
+                                *t += *c;
+                            }
+                        }
+                    }
+                    // The first of equal minima: ties keep the nearest depth.
+                    let best = (0..steps).fold(0, |m, k| if total[k] < total[m] { k } else { m });
+                    let zb = z as f64 + offsets[best];
+                    let p = centre + ray(u, v) * zb;
+                    // Moved back by up to the offset, the point is that much deeper in every
+                    // source than the model's surface the source depths come from.
+                    let tolerance = self.tolerance + offsets[best].max(0.0);
+                    let colour = self
+                        .blend(&p, &centre, candidates, Some(tolerance))
+                        .or_else(|| self.blend(&p, &centre, candidates, None));
+                    if let Some(c) = colour {
+                        rgb_row[3 * u..3 * u + 3].copy_from_slice(&c);
+                        depth_row[u] = zb as f32;
+                    }
+                }
+            });
     }
 
     /// Colour, depth and coverage of one virtual ray (`dir` has camera z = 1).
@@ -332,27 +544,28 @@ impl<'a> Renderer<'a> {
         };
         if let Some(hit) = hit {
             let p = centre + dir * hit.t;
-            if let Some(c) = self.blend(&p, centre, candidates, true) {
+            if let Some(c) = self.blend(&p, centre, candidates, Some(self.tolerance)) {
                 return (c, hit.t as f32, Coverage::Geometry);
             }
-            if let Some(c) = self.blend(&p, centre, candidates, false) {
+            if let Some(c) = self.blend(&p, centre, candidates, None) {
                 return (c, hit.t as f32, Coverage::Fallback);
             }
         }
         let p = centre + dir * focal_depth;
-        match self.blend(&p, centre, candidates, false) {
+        match self.blend(&p, centre, candidates, None) {
             Some(c) => (c, focal_depth as f32, Coverage::Fallback),
             None => ([0; 3], f32::INFINITY, Coverage::Nothing),
         }
     }
 
-    /// The unstructured-lumigraph blend of the candidates that see `p`.
+    /// The unstructured-lumigraph blend of the candidates that see `p`: with `occlusion`, those
+    /// whose own depth there is not nearer than the point's by more than that tolerance.
     fn blend(
         &self,
         p: &Point3<f64>,
         eye: &Point3<f64>,
         candidates: &[(f64, usize)],
-        occlusion: bool,
+        occlusion: Option<f64>,
     ) -> Option<[u8; 3]> {
         let to_eye = eye - p;
         let eye_dist = to_eye.norm();
@@ -376,9 +589,9 @@ impl<'a> Renderer<'a> {
                 continue;
             }
             // u, v >= 0 here, so adding a half and truncating rounds them.
-            if occlusion {
+            if let Some(tolerance) = occlusion {
                 let d = s.depth[((v + 0.5) as usize) * s.width as usize + (u + 0.5) as usize];
-                if z > d as f64 + self.tolerance {
+                if z > d as f64 + tolerance {
                     continue;
                 }
             }

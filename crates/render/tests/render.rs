@@ -214,3 +214,79 @@ fn depth_writes_as_exr_and_reads_back() -> TestResult {
     assert!(Renderer::new(&s.model, Vec::new(), RenderParams::default()).is_err());
     Ok(())
 }
+
+/// The depth refinement (on by default) moves the rendered surface towards the true one and
+/// renders better than the model's own surface; its parameters are checked.
+#[test]
+fn depth_refinement_moves_surfaces_to_the_truth() -> TestResult {
+    let s = setup("lambertian", 24, 128)?;
+    let plain = RenderParams {
+        refine: None,
+        ..RenderParams::default()
+    };
+    let refined = Renderer::new(&s.model, s.sources.clone(), RenderParams::default())?;
+    let unrefined = Renderer::new(&s.model, s.sources.clone(), plain)?;
+    let camera = s.scene.camera((s.pans[9] + s.pans[10]) * 0.5)?;
+    let truth = s.scene.render(&camera, &RenderOptions::default())?;
+    let voxel = s.model.grid().voxel_size();
+    let mut results = Vec::new();
+    for r in [&unrefined, &refined] {
+        let view = r.render(&camera)?;
+        // Median depth error, in voxels, over the object pixels the model covers.
+        let mut errors: Vec<f64> = truth
+            .mask
+            .enumerate_pixels()
+            .filter(|(x, y, m)| m.0[0] != 0 && view.coverage_at(*x, *y) == Coverage::Geometry)
+            .map(|(x, y, _)| {
+                let (d, t) = (
+                    view.depth.get_pixel(x, y).0[0],
+                    truth.depth.get_pixel(x, y).0[0],
+                );
+                (d as f64 - t as f64).abs() / voxel
+            })
+            .collect();
+        errors.sort_by(f64::total_cmp);
+        let median = errors.get(errors.len() / 2).copied().ok_or("no pixels")?;
+        let psnr = metrics::psnr(&truth.rgb8(), &view.rgb, Some(&truth.mask))?;
+        results.push((median, psnr));
+    }
+    let ((median0, psnr0), (median1, psnr1)) = (results[0], results[1]);
+    eprintln!(
+        "median depth error {median0:.2} -> {median1:.2} voxels, PSNR {psnr0:.2} -> {psnr1:.2} dB"
+    );
+    assert!(median1 < 0.8 * median0, "{median0} -> {median1}");
+    assert!(psnr1 > psnr0 + 0.5, "{psnr0} -> {psnr1}");
+
+    for bad in [
+        aibr_render::DepthRefinement {
+            steps: 1,
+            ..Default::default()
+        },
+        aibr_render::DepthRefinement {
+            front_voxels: -3.0,
+            back_voxels: 2.0,
+            ..Default::default()
+        },
+        aibr_render::DepthRefinement {
+            back_voxels: f64::NAN,
+            ..Default::default()
+        },
+        aibr_render::DepthRefinement {
+            radius: 17,
+            ..Default::default()
+        },
+    ] {
+        let params = RenderParams {
+            refine: Some(bad),
+            ..RenderParams::default()
+        };
+        assert!(
+            matches!(
+                Renderer::new(&s.model, s.sources.clone(), params),
+                Err(aibr_render::Error::InvalidParameter { .. })
+            ),
+            "{bad:?}"
+        );
+    }
+    Ok(())
+}
