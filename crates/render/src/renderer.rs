@@ -95,7 +95,8 @@ pub enum Coverage {
     /// No source sees the pixel's point: black, infinite depth.
     Nothing = 0,
     /// The model has no surface there (or no source sees it): blended at the focal surface,
-    /// the depth of the object centre.
+    /// the depth of the object centre, or, for a ray that passes within a splat of the model's
+    /// outline without meeting a voxel, at the nearest splatted surface depth.
     Fallback = 1,
     /// Blended at the model's surface point, from the sources that see it.
     Geometry = 2,
@@ -187,6 +188,8 @@ pub struct Renderer<'a> {
     tolerance: f64,
     /// Centres of the model's surface voxels, splatted every frame.
     surface: Vec<Point3<f64>>,
+    /// How far in front of the nearest splat a ray's DDA starts (2 voxels).
+    splat_margin: f64,
 }
 
 impl<'a> Renderer<'a> {
@@ -297,6 +300,7 @@ impl<'a> Renderer<'a> {
             focus,
             tolerance: params.occlusion_tolerance_voxels * s,
             surface: surface.iter().map(|v| grid.centre(*v)).collect(),
+            splat_margin: 2.0 * s,
         })
     }
 
@@ -351,7 +355,7 @@ impl<'a> Renderer<'a> {
         }
         let s = self.model.grid().voxel_size();
         aibr_voxel::splat_depths(&self.surface, s, camera, &mut out.splat);
-        let margin = 2.0 * s;
+        let margin = self.splat_margin;
         let rot = camera.world_from_cam().rotation.to_rotation_matrix();
         let focal_depth = camera.depth_of(&self.focus).max(1e-6);
         let pinhole = camera.distortion.is_none();
@@ -551,9 +555,17 @@ impl<'a> Renderer<'a> {
                 return (c, hit.t as f32, Coverage::Fallback);
             }
         }
-        let p = centre + dir * focal_depth;
+        // A ray that passes within a splat of the surface but meets no voxel grazes the
+        // model's outline (where carving took the object's edge): the nearest splatted surface
+        // depth stands in for the focal surface there.
+        let depth = if start.is_finite() {
+            start + self.splat_margin
+        } else {
+            focal_depth
+        };
+        let p = centre + dir * depth;
         match self.blend(&p, centre, candidates, None) {
-            Some(c) => (c, focal_depth as f32, Coverage::Fallback),
+            Some(c) => (c, depth as f32, Coverage::Fallback),
             None => ([0; 3], f32::INFINITY, Coverage::Nothing),
         }
     }
