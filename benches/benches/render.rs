@@ -34,14 +34,16 @@ fn bench(c: &mut Criterion) {
     let Ok(out) = voxel_coloring(&grid, &views, &ColoringParams::default()) else {
         return;
     };
-    let sources = shots
-        .iter()
-        .map(|s| SourceView {
-            camera: s.camera.clone(),
-            image: s.image.clone(),
-        })
-        .collect();
-    let Ok(renderer) = Renderer::new(&out.model, sources, RenderParams::default()) else {
+    let sources = || {
+        shots
+            .iter()
+            .map(|s| SourceView {
+                camera: s.camera.clone(),
+                image: s.image.clone(),
+            })
+            .collect::<Vec<_>>()
+    };
+    let Ok(renderer) = Renderer::new(&out.model, sources(), RenderParams::default()) else {
         return;
     };
     let Ok(camera) = scene.camera((pans[20] + pans[21]) * 0.5) else {
@@ -58,14 +60,7 @@ fn bench(c: &mut Criterion) {
         refine: None,
         ..RenderParams::default()
     };
-    let sources = shots
-        .iter()
-        .map(|s| SourceView {
-            camera: s.camera.clone(),
-            image: s.image.clone(),
-        })
-        .collect();
-    if let Ok(unrefined) = Renderer::new(&out.model, sources, plain) {
+    if let Ok(unrefined) = Renderer::new(&out.model, sources(), plain) {
         g.bench_function("vga_unrefined", |b| {
             b.iter(|| unrefined.render_into(&camera, &mut buffers))
         });

@@ -64,6 +64,20 @@ fn svg_error(e: impl std::fmt::Display) -> anyhow::Error {
     anyhow::anyhow!("drawing a plot: {e}")
 }
 
+/// Draws a chart's series labels at `position`, on white in a black frame.
+fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE)
+        .border_style(BLACK)
+        .draw()
+        .map_err(svg_error)
+}
+
 const ACTIVE: RGBColor = RGBColor(214, 39, 40);
 const UNIFORM: RGBColor = RGBColor(31, 119, 180);
 
@@ -126,13 +140,7 @@ fn polar_plot(results: &[StrategyEval], range: (f64, f64)) -> Result<String> {
                 .label(format!("{} ({} views)", r.strategy.name(), last.views))
                 .legend(move |(x, y)| Circle::new((x + 8, y), 4, c.filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE)
-            .border_style(BLACK)
-            .draw()
-            .map_err(svg_error)?;
+        legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         root.present().map_err(svg_error)?;
     }
     Ok(svg)
@@ -203,13 +211,7 @@ fn psnr_plot(results: &[StrategyEval]) -> Result<String> {
                 .label(format!("{}: worst arc", r.strategy.name()))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE)
-            .border_style(BLACK)
-            .draw()
-            .map_err(svg_error)?;
+        legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         root.present().map_err(svg_error)?;
     }
     Ok(svg)
@@ -275,13 +277,7 @@ fn angle_plot(results: &[StrategyEval], range: (f64, f64)) -> Result<String> {
                 }))
                 .map_err(svg_error)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE)
-            .border_style(BLACK)
-            .draw()
-            .map_err(svg_error)?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(svg_error)?;
     }
     Ok(svg)

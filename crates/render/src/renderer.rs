@@ -175,11 +175,13 @@ struct Source {
 /// more than the tolerance) gets the unstructured-lumigraph penalty
 /// `angle + resolution_weight * resolution` (angle between the rays from the point to the
 /// virtual and the source camera, as a chord of unit vectors; resolution the relative excess
-/// distance of the source). The
-/// `k` best are blended with weights `(1 - p / p_(k+1)) / p`, which fall smoothly to zero as a
-/// source leaves the `k` best, so the image changes continuously with the camera. Where the
-/// model has no surface the point is taken on the focal surface at the depth of the object
-/// centre, so the image degrades like a light field instead of showing holes.
+/// distance of the source). The `k` best are blended with weights `(1 - p / p_(k+1)) / p`,
+/// which fall smoothly to zero as a source leaves the `k` best, so the image changes
+/// continuously with the camera. Then, by default, each such pixel's depth is refined near the
+/// model's surface ([`DepthRefinement`]) and the pixel blended again there. Where the model has
+/// no surface the point is taken on the focal surface at the depth of the object centre (or,
+/// beside the model's outline, at the nearest surface voxel's depth), so the image degrades
+/// like a light field instead of showing holes.
 pub struct Renderer<'a> {
     model: &'a VoxelModel,
     sources: Vec<Source>,
