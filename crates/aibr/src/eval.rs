@@ -341,8 +341,6 @@ fn measure<R: EvalRig>(
         .map(|v| Angle::from_radians(v.record.pan_rad))
         .collect();
     pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
-    // Per arc between neighbouring views: the PSNR of its novel views.
-    let mut arcs: Vec<Vec<f64>> = vec![Vec::new(); pans.len().saturating_sub(1)];
     let mut novel = Vec::new();
     for (pan, camera) in rig.novel_views(&pans, params.step)? {
         let (truth, mask) = match truths.entry(pan.radians().to_bits()) {
@@ -353,31 +351,33 @@ fn measure<R: EvalRig>(
         let psnr = metrics::psnr(truth, &view.rgb, Some(mask))?;
         let ssim = metrics::ssim(truth, &view.rgb, Some(mask))?;
         novel.push(NovelView { pan, psnr, ssim });
-        if let Some(i) = pans
-            .windows(2)
-            .position(|w| pan.radians() > w[0].radians() && pan.radians() < w[1].radians())
-        {
-            arcs[i].push(psnr);
-        }
     }
+    novel.sort_by(|a, b| a.pan.radians().total_cmp(&b.pan.radians()));
+    let mean = |views: &[&NovelView], f: fn(&NovelView) -> f64| {
+        views.iter().map(|v| f(v)).sum::<f64>() / views.len().max(1) as f64
+    };
+    // The arc between neighbouring views whose novel views render worst on average.
     let mut worst = (f64::INFINITY, (Angle::ZERO, Angle::ZERO));
-    for (i, values) in arcs.iter().enumerate() {
-        if values.is_empty() {
+    for w in pans.windows(2) {
+        let inside: Vec<&NovelView> = novel
+            .iter()
+            .filter(|v| v.pan.radians() > w[0].radians() && v.pan.radians() < w[1].radians())
+            .collect();
+        if inside.is_empty() {
             continue;
         }
-        let mean = values.iter().sum::<f64>() / values.len() as f64;
-        if mean < worst.0 {
-            worst = (mean, (pans[i], pans[i + 1]));
+        let arc = mean(&inside, |v| v.psnr);
+        if arc < worst.0 {
+            worst = (arc, (w[0], w[1]));
         }
     }
-    let n = novel.len().max(1) as f64;
-    novel.sort_by(|a, b| a.pan.radians().total_cmp(&b.pan.radians()));
+    let all: Vec<&NovelView> = novel.iter().collect();
     Ok(Checkpoint {
         views: views.len(),
         pans,
         evaluated: novel.len(),
-        mean_psnr: novel.iter().map(|v| v.psnr).sum::<f64>() / n,
-        mean_ssim: novel.iter().map(|v| v.ssim).sum::<f64>() / n,
+        mean_psnr: mean(&all, |v| v.psnr),
+        mean_ssim: mean(&all, |v| v.ssim),
         worst_arc_psnr: worst.0,
         worst_arc: worst.1,
         novel,
