@@ -4,7 +4,7 @@
 use aibr_camera::{Camera, ImageSize};
 use aibr_voxel::{DepthMap, VoxelModel};
 use image::{GrayImage, RgbImage};
-use nalgebra::{Point2, Point3, Vector3};
+use nalgebra::{Point2, Point3, Rotation3, Vector3};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -166,6 +166,47 @@ struct Source {
     centre: Point3<f64>,
     width: u32,
     height: u32,
+}
+
+impl Source {
+    /// Homogeneous image coordinates of the world point `x`.
+    #[inline]
+    fn homogeneous(&self, x: &Point3<f64>) -> [f64; 3] {
+        self.p.map(|r| r[0] * x.x + r[1] * x.y + r[2] * x.z + r[3])
+    }
+
+    /// Homogeneous image coordinates of the world direction `d` (the change per unit along it).
+    #[inline]
+    fn direction(&self, d: &Vector3<f64>) -> [f64; 3] {
+        self.p.map(|r| r[0] * d.x + r[1] * d.y + r[2] * d.z)
+    }
+
+    /// The pixel of homogeneous coordinates `h`: `Some((u, v))` when in front of the camera and
+    /// on the image (so `u, v >= 0`).
+    #[inline]
+    fn pixel(&self, h: [f64; 3]) -> Option<(f64, f64)> {
+        if !(h[2] > 0.0) {
+            return None;
+        }
+        let inv_z = 1.0 / h[2];
+        let (u, v) = (h[0] * inv_z, h[1] * inv_z);
+        let inside =
+            u >= 0.0 && v >= 0.0 && u <= (self.width - 1) as f64 && v <= (self.height - 1) as f64;
+        inside.then_some((u, v))
+    }
+}
+
+/// The ray through pixel `(u, v)` of `camera` in the world, scaled to camera z = 1 (`rot` is
+/// the camera's world-from-camera rotation); `None` where lens distortion has no inverse.
+#[inline]
+fn pixel_ray(camera: &Camera, rot: &Rotation3<f64>, u: usize, v: usize) -> Option<Vector3<f64>> {
+    let px = Point2::new(u as f64, v as f64);
+    let n = if camera.distortion.is_none() {
+        Some(camera.intrinsics.normalized_from_pixel(px))
+    } else {
+        camera.normalized_from_pixel(px)
+    }?;
+    Some(rot * Vector3::new(n.x, n.y, 1.0))
 }
 
 /// Renders novel views from captured views and a voxel model.
@@ -357,7 +398,6 @@ impl<'a> Renderer<'a> {
         }
         let s = self.model.grid().voxel_size();
         aibr_voxel::splat_depths(&self.surface, s, camera, &mut out.splat);
-        let margin = self.splat_margin;
         let rot = camera.world_from_cam().rotation.to_rotation_matrix();
         let focal_depth = camera.depth_of(&self.focus).max(1e-6);
         let pinhole = camera.distortion.is_none();
@@ -370,18 +410,11 @@ impl<'a> Renderer<'a> {
             .enumerate()
             .for_each(|(v, ((rgb_row, depth_row), cov_row))| {
                 for u in 0..width {
-                    let px = Point2::new(u as f64, v as f64);
-                    let n = if pinhole {
-                        Some(camera.intrinsics.normalized_from_pixel(px))
-                    } else {
-                        camera.normalized_from_pixel(px)
-                    };
-                    let start = splat[v * width + u] as f64 - margin;
-                    let (colour, depth, coverage) = match n {
-                        Some(n) => self.shade(
+                    let (colour, depth, coverage) = match pixel_ray(camera, &rot, u, v) {
+                        Some(dir) => self.shade(
                             &centre,
-                            &(rot * Vector3::new(n.x, n.y, 1.0)),
-                            start,
+                            &dir,
+                            splat[v * width + u] as f64,
                             focal_depth,
                             candidates,
                         ),
@@ -404,7 +437,7 @@ impl<'a> Renderer<'a> {
     fn refine(
         &self,
         camera: &Camera,
-        rot: &nalgebra::Rotation3<f64>,
+        rot: &Rotation3<f64>,
         refine: DepthRefinement,
         candidates: &[(f64, usize)],
         out: &mut RenderedView,
@@ -417,42 +450,17 @@ impl<'a> Renderer<'a> {
             s * (-refine.front_voxels + span * k as f64 / (steps - 1) as f64)
         });
         let centre = camera.centre();
-        let ray = |u: usize, v: usize| {
-            let n = camera
-                .intrinsics
-                .normalized_from_pixel(Point2::new(u as f64, v as f64));
-            rot * Vector3::new(n.x, n.y, 1.0)
-        };
         let (a, b) = (
             &self.sources[candidates[0].1],
             &self.sources[candidates[1].1],
         );
         // The point `p + t d` in a source, homogeneous: `base + t slope`.
-        let line = |src: &Source, p: &Point3<f64>, d: &Vector3<f64>| -> [[f64; 3]; 2] {
-            [
-                std::array::from_fn(|r| {
-                    let m = &src.p[r];
-                    m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3]
-                }),
-                std::array::from_fn(|r| {
-                    let m = &src.p[r];
-                    m[0] * d.x + m[1] * d.y + m[2] * d.z
-                }),
-            ]
+        let line = |src: &Source, p: &Point3<f64>, d: &Vector3<f64>| {
+            [src.homogeneous(p), src.direction(d)]
         };
         let sample = |src: &Source, [base, slope]: &[[f64; 3]; 2], t: f64| {
-            let z = base[2] + t * slope[2];
-            if !(z > 0.0) {
-                return None;
-            }
-            let inv = 1.0 / z;
-            let (u, v) = (
-                (base[0] + t * slope[0]) * inv,
-                (base[1] + t * slope[1]) * inv,
-            );
-            let inside =
-                u >= 0.0 && v >= 0.0 && u <= (src.width - 1) as f64 && v <= (src.height - 1) as f64;
-            inside.then(|| bilinear(&src.image, u, v))
+            src.pixel(std::array::from_fn(|r| base[r] + t * slope[r]))
+                .map(|(u, v)| bilinear(&src.image, u, v))
         };
         // The frame's depths, read while the colours and depths are rewritten, and the
         // Geometry pixels in a compact list with their cost slots.
@@ -475,7 +483,9 @@ impl<'a> Renderer<'a> {
             .zip(out.refined.par_iter())
             .for_each(|(cell, &i)| {
                 let (u, v) = (i as usize % w, i as usize / w);
-                let dir = ray(u, v);
+                let Some(dir) = pixel_ray(camera, rot, u, v) else {
+                    return;
+                };
                 let p = centre + dir * depths[i as usize] as f64;
                 let (la, lb) = (line(a, &p, &dir), line(b, &p, &dir));
                 for (cost, &t) in cell.iter_mut().zip(&offsets) {
@@ -519,7 +529,10 @@ impl<'a> Renderer<'a> {
                     // The first of equal minima: ties keep the nearest depth.
                     let best = (0..steps).fold(0, |m, k| if total[k] < total[m] { k } else { m });
                     let zb = z as f64 + offsets[best];
-                    let p = centre + ray(u, v) * zb;
+                    let Some(dir) = pixel_ray(camera, rot, u, v) else {
+                        continue;
+                    };
+                    let p = centre + dir * zb;
                     // Moved back by up to the offset, the point is that much deeper in every
                     // source than the model's surface the source depths come from.
                     let tolerance = self.tolerance + offsets[best].max(0.0);
@@ -534,16 +547,18 @@ impl<'a> Renderer<'a> {
             });
     }
 
-    /// Colour, depth and coverage of one virtual ray (`dir` has camera z = 1).
+    /// Colour, depth and coverage of one virtual ray (`dir` has camera z = 1) whose nearest
+    /// splatted surface depth is `splat` (infinite where no splat covers it).
     fn shade(
         &self,
         centre: &Point3<f64>,
         dir: &Vector3<f64>,
-        start: f64,
+        splat: f64,
         focal_depth: f64,
         candidates: &[(f64, usize)],
     ) -> ([u8; 3], f32, Coverage) {
-        let hit = if start.is_finite() {
+        let hit = if splat.is_finite() {
+            let start = splat - self.splat_margin;
             self.model.raycast_from(centre, dir, start.max(0.0))
         } else {
             None
@@ -560,8 +575,8 @@ impl<'a> Renderer<'a> {
         // A ray that passes within a splat of the surface but meets no voxel grazes the
         // model's outline (where carving took the object's edge): the nearest splatted surface
         // depth stands in for the focal surface there.
-        let depth = if start.is_finite() {
-            start + self.splat_margin
+        let depth = if splat.is_finite() {
+            splat
         } else {
             focal_depth
         };
@@ -592,16 +607,11 @@ impl<'a> Renderer<'a> {
         let mut n = 0;
         for &(_, i) in candidates {
             let s = &self.sources[i];
-            let row = |r: &[f64; 4]| r[0] * p.x + r[1] * p.y + r[2] * p.z + r[3];
-            let z = row(&s.p[2]);
-            if !(z > 0.0) {
+            let h = s.homogeneous(p);
+            let Some((u, v)) = s.pixel(h) else {
                 continue;
-            }
-            let inv_z = 1.0 / z;
-            let (u, v) = (row(&s.p[0]) * inv_z, row(&s.p[1]) * inv_z);
-            if !(u >= 0.0 && v >= 0.0 && u <= (s.width - 1) as f64 && v <= (s.height - 1) as f64) {
-                continue;
-            }
+            };
+            let z = h[2];
             // u, v >= 0 here, so adding a half and truncating rounds them.
             if let Some(tolerance) = occlusion {
                 let d = s.depth[((v + 0.5) as usize) * s.width as usize + (u + 0.5) as usize];
