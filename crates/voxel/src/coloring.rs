@@ -109,13 +109,15 @@ pub fn voxel_coloring(
     let (projectors, pixels, centres) = prepare(grid, views, params)?;
     let n = views.len();
     let [nx, ny, nz] = grid.dims();
-    let mut tiles: Vec<Tiles> = pixels.iter().map(Tiles::new).collect();
+    let mut tiles: Vec<Tiles> = pixels.par_iter().map(Tiles::new).collect();
     let mut model = VoxelModel::empty(*grid);
     let mut stats = KernelStats {
         voxels: grid.len(),
         ..KernelStats::default()
     };
     let (bx, by) = (nx.div_ceil(BLOCK), ny.div_ceil(BLOCK));
+    // Per view: the footprints the layer's kept voxels claim there.
+    let mut claims: Vec<Vec<Footprint>> = vec![Vec::new(); n];
     for k in (0..nz).rev() {
         // Decide the layer block by block, blocks in parallel, against the claims of the
         // layers above.
@@ -149,17 +151,17 @@ pub fn voxel_coloring(
             for &(idx, c) in &block.kept {
                 model.set(idx, c);
             }
+            for &(v, fp) in &block.claims {
+                claims[v as usize].push(fp);
+            }
         }
         // Claim the layer's footprints, views in parallel.
         tiles
             .par_iter_mut()
-            .zip(projectors.par_iter())
-            .for_each(|(tl, proj)| {
-                for &([i, j, k], _) in blocks.iter().flat_map(|b| &b.kept) {
-                    let base = proj.row_base(grid, j, k);
-                    if let Some(fp) = proj.footprint(proj.along_row(&base, i)) {
-                        tl.claim(&fp);
-                    }
+            .zip(claims.par_iter_mut())
+            .for_each(|(tl, fps)| {
+                for fp in fps.drain(..) {
+                    tl.claim(&fp);
                 }
                 tl.settle();
             });
@@ -182,16 +184,20 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
     let seen: Vec<Vec<bool>> = projectors
         .par_iter()
         .map(|proj| {
-            let fps: Vec<Option<(Footprint, f32)>> = voxels
+            // The voxels are listed row by row: one row base serves a run of them.
+            let mut row = (usize::MAX, usize::MAX, [0f32; 3]);
+            let fps: Vec<(Footprint, f32)> = voxels
                 .iter()
                 .map(|&[i, j, k]| {
-                    let h = proj.along_row(&proj.row_base(&grid, j, k), i);
-                    proj.footprint(h).map(|fp| (fp, h[2]))
+                    if (row.0, row.1) != (j, k) {
+                        row = (j, k, proj.row_base(&grid, j, k));
+                    }
+                    proj.footprint_at(&row.2, i as f32)
                 })
                 .collect();
             // The z-buffer covers only the footprints' bounding box.
             let (mut u0, mut u1, mut v0, mut v1) = (u32::MAX, 0, u32::MAX, 0);
-            for (fp, _) in fps.iter().flatten() {
+            for (fp, _) in fps.iter().filter(|(fp, _)| !fp.is_empty()) {
                 (u0, u1) = (u0.min(fp.u0), u1.max(fp.u1));
                 (v0, v1) = (v0.min(fp.v0), v1.max(fp.v1));
             }
@@ -201,35 +207,32 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
             } else {
                 width * (v1 - v0 + 1) as usize
             };
-            let mut depth = vec![f32::INFINITY; area];
-            let mut owner = vec![u32::MAX; area];
-            for (n, f) in fps.iter().enumerate() {
-                let Some((fp, z)) = f else { continue };
-                for v in fp.v0..=fp.v1 {
-                    for u in fp.u0..=fp.u1 {
-                        let p = (v - v0) as usize * width + (u - u0) as usize;
-                        // Ties go to the lower index, the same in every run.
-                        if *z < depth[p] {
-                            depth[p] = *z;
-                            owner[p] = n as u32;
-                        }
+            // Per pixel, the nearest voxel as one key: the depth's bits (positive floats order
+            // as their bits do) above the voxel's index, so the smallest key is the nearest
+            // voxel and ties go to the lower index, the same in every run.
+            let mut nearest = vec![u64::MAX; area];
+            for (n, (fp, z)) in fps.iter().enumerate() {
+                if fp.is_empty() {
+                    continue;
+                }
+                let key = (u64::from(z.to_bits()) << 32) | n as u64;
+                let (a, b) = ((fp.u0 - u0) as usize, (fp.u1 - u0) as usize + 1);
+                for v in (fp.v0 - v0) as usize..(fp.v1 - v0) as usize + 1 {
+                    let row = v * width;
+                    for k in &mut nearest[row + a..row + b] {
+                        *k = (*k).min(key);
                     }
                 }
             }
             let mut wins = vec![0u32; voxels.len()];
-            for &o in &owner {
-                if o != u32::MAX {
-                    wins[o as usize] += 1;
+            for &k in &nearest {
+                if k != u64::MAX {
+                    wins[(k & u64::from(u32::MAX)) as usize] += 1;
                 }
             }
             fps.iter()
                 .zip(&wins)
-                .map(|(f, &w)| {
-                    f.is_some_and(|(fp, _)| {
-                        let size = (fp.u1 - fp.u0 + 1) * (fp.v1 - fp.v0 + 1);
-                        4 * w >= size
-                    })
-                })
+                .map(|((fp, _), &w)| !fp.is_empty() && 4 * w >= fp.area())
                 .collect()
         })
         .collect();
@@ -247,6 +250,10 @@ const BLOCK: usize = 8;
 /// What one block of a layer decided.
 struct BlockResult {
     kept: Vec<([usize; 3], [u8; 3])>,
+    /// The footprints the kept voxels claim, with their views. Only views that could still
+    /// see the block are listed: in the others every pixel under the block is already
+    /// claimed or background, so a claim there would change nothing.
+    claims: Vec<(u32, Footprint)>,
     rejected: usize,
     tested: usize,
 }
@@ -255,44 +262,75 @@ struct BlockResult {
 struct BlockScratch {
     silhouette: Vec<usize>,
     active: Vec<usize>,
-    /// Per view: does the per-voxel path need it (silhouette or active)?
-    needed: Vec<bool>,
-    /// Per view: the projection of voxel `[0, j, k]` of the current row.
-    bases: Vec<[f32; 3]>,
-    /// Per view: the footprint of voxel `stamps[v]` (so a view that is both a silhouette and
-    /// an active view projects each voxel once).
-    footprints: Vec<Option<Footprint>>,
-    stamps: Vec<usize>,
-    /// Index into `silhouette` of the view that rejected the last rejected voxel: neighbours
-    /// tend to fall outside the same silhouette, so it is asked first.
-    rejecter: usize,
+    footprints: BlockFootprints,
+    /// Per voxel of the block: still a candidate (not rejected by a silhouette, still able
+    /// to reach `min_views`).
+    alive: Vec<bool>,
+    /// Per voxel of the block, up to one per view (`views` a voxel): its samples in view
+    /// order, and how many.
     samples: Vec<Sample>,
+    counts: Vec<usize>,
+    views: usize,
     decide: Vec<crate::kernel::Emission>,
 }
 
 impl BlockScratch {
     fn new(n: usize) -> Self {
+        let cells = BLOCK * BLOCK;
         BlockScratch {
             silhouette: Vec::with_capacity(n),
             active: Vec::with_capacity(n),
-            needed: vec![false; n],
-            bases: vec![[0.0; 3]; n],
-            footprints: vec![None; n],
-            stamps: vec![usize::MAX; n],
-            rejecter: 0,
-            samples: Vec::with_capacity(n),
+            footprints: BlockFootprints {
+                projected: vec![false; n],
+                footprints: vec![Footprint::EMPTY; n * cells],
+            },
+            alive: vec![false; cells],
+            samples: vec![
+                Sample {
+                    view: 0,
+                    colour: [0.0; 3]
+                };
+                n * cells
+            ],
+            counts: vec![0; cells],
+            views: n,
             decide: Vec::with_capacity(n),
         }
     }
+}
 
-    /// The footprint of voxel `i` of the current row (stamp `stamp`) in view `v`.
-    #[inline]
-    fn footprint(&mut self, p: &Projector, v: usize, i: usize, stamp: usize) -> Option<Footprint> {
-        if self.stamps[v] != stamp {
-            self.stamps[v] = stamp;
-            self.footprints[v] = p.footprint(p.along_row(&self.bases[v], i));
+/// The footprints of one block's voxels in every view, each view's computed on first use.
+struct BlockFootprints {
+    /// Per view: are its footprints of the current block in `footprints`?
+    projected: Vec<bool>,
+    /// Per view, per voxel of the block (row-major, `BLOCK * BLOCK` a view): footprints,
+    /// empty where the voxel is behind the camera or off the image.
+    footprints: Vec<Footprint>,
+}
+
+impl BlockFootprints {
+    /// The footprints in view `v` of the voxels `[i0..i1) x [j0..j1)` of layer `k`, computed
+    /// on first use within the block.
+    fn of(
+        &mut self,
+        grid: &VoxelGrid,
+        p: &Projector,
+        v: usize,
+        (i0, i1): (usize, usize),
+        (j0, j1): (usize, usize),
+        k: usize,
+    ) -> &[Footprint] {
+        let cells = BLOCK * BLOCK;
+        let out = &mut self.footprints[v * cells..(v + 1) * cells];
+        if !self.projected[v] {
+            self.projected[v] = true;
+            let width = i1 - i0;
+            for j in j0..j1 {
+                let base = p.row_base(grid, j, k);
+                p.footprints_along_row(&base, i0, &mut out[(j - j0) * width..(j - j0 + 1) * width]);
+            }
         }
-        self.footprints[v]
+        out
     }
 }
 
@@ -301,8 +339,10 @@ impl BlockScratch {
 /// Per view, the block's projected bounds against the tile summaries settle most questions
 /// for all its voxels at once, exactly: a view whose mask is background under the whole
 /// bound rejects the block; one that is foreground under it rejects none of its voxels; one
-/// that is claimed under it sees none of them. Only the views left open are asked voxel by
-/// voxel, in the same order and with the same arithmetic as the reference.
+/// that is claimed under it sees none of them. The views left open are then asked one at a
+/// time for every voxel of the block still in question (so each view's pixels under the
+/// block are read while in cache): first the silhouette views, then the active ones in view
+/// order, with the same arithmetic as the reference.
 #[allow(clippy::too_many_arguments)]
 fn decide_block(
     grid: &VoxelGrid,
@@ -319,6 +359,7 @@ fn decide_block(
     let size = (i1 - i0) * (j1 - j0);
     let mut out = BlockResult {
         kept: Vec::new(),
+        claims: Vec::new(),
         rejected: 0,
         tested: 0,
     };
@@ -356,69 +397,82 @@ fn decide_block(
         // No voxel of the block can be seen by enough views (and so none is tested).
         return out;
     }
-    scratch.needed.fill(false);
-    for &v in scratch.silhouette.iter().chain(&scratch.active) {
-        scratch.needed[v] = true;
-    }
-    scratch.stamps.fill(usize::MAX);
-    scratch.rejecter = 0;
-    for j in j0..j1 {
-        for (v, p) in projectors.iter().enumerate() {
-            if scratch.needed[v] {
-                scratch.bases[v] = p.row_base(grid, j, k);
+    scratch.footprints.projected.fill(false);
+    scratch.alive[..size].fill(true);
+    let mut alive = size;
+    let silhouette = std::mem::take(&mut scratch.silhouette);
+    for &v in &silhouette {
+        let fps = scratch
+            .footprints
+            .of(grid, &projectors[v], v, (i0, i1), (j0, j1), k);
+        for (x, fp) in fps[..size].iter().enumerate() {
+            if scratch.alive[x] && !fp.is_empty() && tiles[v].all_background(&pixels[v], fp) {
+                scratch.alive[x] = false;
+                alive -= 1;
             }
         }
-        for i in i0..i1 {
-            // A stamp unique to the voxel within the block.
-            let stamp = (j - j0) * (i1 - i0) + (i - i0);
-            let m = scratch.silhouette.len();
-            let rejected = (0..m).any(|a| {
-                let s = (scratch.rejecter + a) % m;
-                let v = scratch.silhouette[s];
-                let out = scratch
-                    .footprint(&projectors[v], v, i, stamp)
-                    .is_some_and(|f| tiles[v].all_background(&pixels[v], &f));
-                if out {
-                    scratch.rejecter = s;
-                }
-                out
-            });
-            if rejected {
-                out.rejected += 1;
+        if alive == 0 {
+            break;
+        }
+    }
+    scratch.silhouette = silhouette;
+    out.rejected = size - alive;
+    scratch.counts[..size].fill(0);
+    let active = std::mem::take(&mut scratch.active);
+    let m = active.len();
+    let n = scratch.views;
+    for (a, &v) in active.iter().enumerate() {
+        if alive == 0 {
+            break;
+        }
+        let fps = scratch
+            .footprints
+            .of(grid, &projectors[v], v, (i0, i1), (j0, j1), k);
+        for (x, fp) in fps[..size].iter().enumerate() {
+            if !scratch.alive[x] {
                 continue;
             }
-            scratch.samples.clear();
-            let m = scratch.active.len();
-            for a in 0..m {
-                // A voxel that can no longer reach `min_views` is not tested.
-                if scratch.samples.len() + (m - a) < params.min_views {
-                    break;
-                }
-                let v = scratch.active[a];
-                let Some(f) = scratch.footprint(&projectors[v], v, i, stamp) else {
-                    continue;
-                };
-                if tiles[v].all_claimed(&f) {
-                    continue;
-                }
-                let (sum, count) = tiles[v].gather(&pixels[v], &f);
-                if count > 0 {
-                    scratch.samples.push(Sample::new(v, sum, count));
-                }
-            }
-            if scratch.samples.len() < params.min_views {
+            // A voxel that can no longer reach `min_views` is not tested.
+            let count = scratch.counts[x];
+            if count + (m - a) < params.min_views {
+                scratch.alive[x] = false;
+                alive -= 1;
                 continue;
             }
-            out.tested += 1;
-            let x = grid.centre([i, j, k]);
-            if let Some(c) = decide(
-                &scratch.samples,
-                centres,
-                &x,
-                &params.criterion,
-                &mut scratch.decide,
-            ) {
-                out.kept.push(([i, j, k], c));
+            if fp.is_empty() || tiles[v].all_claimed(fp) {
+                continue;
+            }
+            let (sum, c) = tiles[v].gather(&pixels[v], fp);
+            if c > 0 {
+                scratch.samples[x * n + count] = Sample::new(v, sum, c);
+                scratch.counts[x] = count + 1;
+            }
+        }
+    }
+    scratch.active = active;
+    let width = i1 - i0;
+    for x in 0..size {
+        let count = scratch.counts[x];
+        if !scratch.alive[x] || count < params.min_views {
+            continue;
+        }
+        out.tested += 1;
+        let (i, j) = (i0 + x % width, j0 + x / width);
+        let voxel = grid.centre([i, j, k]);
+        if let Some(c) = decide(
+            &scratch.samples[x * n..x * n + count],
+            centres,
+            &voxel,
+            &params.criterion,
+            &mut scratch.decide,
+        ) {
+            out.kept.push(([i, j, k], c));
+            // Every active view was asked about this voxel, so its footprints are known.
+            for &v in &scratch.active {
+                let fp = scratch.footprints.footprints[v * BLOCK * BLOCK + x];
+                if !fp.is_empty() {
+                    out.claims.push((v as u32, fp));
+                }
             }
         }
     }
