@@ -98,7 +98,8 @@ pub enum Coverage {
     /// the depth of the object centre, or, for a ray that passes within a splat of the model's
     /// outline without meeting a voxel, at the nearest splatted surface depth.
     Fallback = 1,
-    /// Blended at the model's surface point, from the sources that see it.
+    /// Blended at the model's surface point, from the sources that see it (for a ray
+    /// through a pinhole in the model's surface, at the depth of the surface around the hole).
     Geometry = 2,
 }
 
@@ -218,7 +219,10 @@ fn pixel_ray(camera: &Camera, rot: &Rotation3<f64>, u: usize, v: usize) -> Optio
 /// virtual and the source camera, as a chord of unit vectors; resolution the relative excess
 /// distance of the source). The `k` best are blended with weights `(1 - p / p_(k+1)) / p`,
 /// which fall smoothly to zero as a source leaves the `k` best, so the image changes
-/// continuously with the camera. Then, by default, each such pixel's depth is refined near the
+/// continuously with the camera. A ray whose point no source sees, because it went through a
+/// pinhole in the model's surface and met the far side, is blended instead at the depth of
+/// the surface splatted around the hole, when the sources see that. Then, by default, each
+/// such pixel's depth is refined near the
 /// model's surface ([`DepthRefinement`]) and the pixel blended again there. Where the model has
 /// no surface the point is taken on the focal surface at the depth of the object centre (or,
 /// beside the model's outline, at the nearest surface voxel's depth), so the image degrades
@@ -567,6 +571,16 @@ impl<'a> Renderer<'a> {
             let p = centre + dir * hit.t;
             if let Some(c) = self.blend(&p, centre, candidates, Some(self.tolerance)) {
                 return (c, hit.t as f32, Coverage::Geometry);
+            }
+            // No source sees the point. Where the ray went through a pinhole in the model's
+            // surface (voxel coloring leaves some), it met the far side of the object, often
+            // ten voxels or more behind; the surface splatted around the hole is where the ray
+            // meets the object, if the sources see that.
+            if splat < hit.t {
+                let q = centre + dir * splat;
+                if let Some(c) = self.blend(&q, centre, candidates, Some(self.tolerance)) {
+                    return (c, splat as f32, Coverage::Geometry);
+                }
             }
             if let Some(c) = self.blend(&p, centre, candidates, None) {
                 return (c, hit.t as f32, Coverage::Fallback);

@@ -94,7 +94,8 @@ fn masked_psnr(s: &Setup, r: &Renderer<'_>, pan: Angle) -> Result<f64, Box<dyn s
 }
 
 /// The figure: `lambertian`, 24 uniform views, its 128^3 model, the virtual views
-/// half-way between captures. Target 30 dB; what is reached is printed and guarded.
+/// half-way between captures (every third of them here; all 23 in the `render_quality`
+/// example). Target 30 dB: every third reaches 30.16 dB (session 8), all 23 reach 30.30.
 #[test]
 fn halfway_views_on_lambertian() -> TestResult {
     let s = setup("lambertian", 24, 128)?;
@@ -105,7 +106,7 @@ fn halfway_views_on_lambertian() -> TestResult {
     }
     let mean = values.iter().sum::<f64>() / values.len() as f64;
     eprintln!("lambertian, 24 views, 128^3: half-way masked PSNR mean {mean:.2} dB (target 30)");
-    assert!(mean > 26.0, "{values:?}");
+    assert!(mean >= 30.0, "{values:?}");
     // At a captured view the renderer gives that view back (errors only at silhouettes).
     let at_source = masked_psnr(&s, &r, s.pans[7])?;
     assert!(at_source > mean + 1.0, "at a source {at_source} dB");
@@ -288,5 +289,85 @@ fn depth_refinement_moves_surfaces_to_the_truth() -> TestResult {
             "{bad:?}"
         );
     }
+    Ok(())
+}
+
+/// Voxel coloring leaves pinholes in the model's surface; a ray through one meets the far side
+/// of the object, which no source sees. A hollow cube of voxels with a one-voxel tunnel
+/// punched through its front wall: the pixel behind the tunnel must be blended at the wall,
+/// as without the tunnel, not on the inside of the back wall.
+#[test]
+fn a_pinhole_in_the_model_does_not_show() -> TestResult {
+    use aibr_camera::{Aabb, CircularMotion, Distortion, ImageSize, Intrinsics};
+    use nalgebra::{Point2, Point3};
+    let grid = VoxelGrid::with_resolution(
+        Aabb {
+            min: Point3::new(-0.1, -0.1, 0.0),
+            max: Point3::new(0.1, 0.1, 0.2),
+        },
+        40,
+    )?;
+    let mut cube = VoxelModel::empty(grid);
+    for k in 10..30 {
+        for j in 10..30 {
+            for i in 10..30 {
+                if [i, j, k].iter().any(|&c| c == 10 || c == 29) {
+                    cube.set([i, j, k], [128; 3]);
+                }
+            }
+        }
+    }
+    let ring = CircularMotion::ring(0.6, 0.3, 0.1)?;
+    let camera = |degrees: f64| {
+        aibr_camera::Camera::new(
+            Intrinsics::new(300.0, 300.0, 79.5, 59.5),
+            Distortion::NONE,
+            ring.cam_from_world(Angle::from_degrees(degrees)),
+            ImageSize::new(160, 120),
+        )
+    };
+    let sources = [-20.0, -10.0, 0.0, 10.0, 20.0]
+        .into_iter()
+        .map(|d| {
+            Ok(SourceView {
+                camera: camera(d)?,
+                image: RgbImage::from_pixel(160, 120, image::Rgb([90, 120, 150])),
+            })
+        })
+        .collect::<Result<Vec<_>, aibr_camera::Error>>()?;
+    let params = RenderParams {
+        refine: None,
+        ..RenderParams::default()
+    };
+    let virtual_camera = camera(4.0)?;
+    let (x, y) = (80, 70);
+    let intact = Renderer::new(&cube, sources.clone(), params)?.render(&virtual_camera)?;
+    assert_eq!(intact.coverage_at(x, y), Coverage::Geometry);
+    let ray = virtual_camera
+        .ray_through_pixel(Point2::new(x as f64, y as f64))
+        .ok_or("no ray")?;
+    let voxel = grid.voxel_size();
+    let mut holed = cube.clone();
+    let first = holed.raycast(&ray.origin, &ray.direction).ok_or("misses")?;
+    // Clear the wall along the ray until the ray reaches the back wall.
+    let mut far = first;
+    while far.t < first.t + 5.0 * voxel {
+        holed.clear(far.voxel);
+        far = holed
+            .raycast(&ray.origin, &ray.direction)
+            .ok_or("through")?;
+    }
+    let view = Renderer::new(&holed, sources, params)?.render(&virtual_camera)?;
+    assert_eq!(view.coverage_at(x, y), Coverage::Geometry);
+    let (d0, d1) = (
+        intact.depth.get_pixel(x, y).0[0],
+        view.depth.get_pixel(x, y).0[0],
+    );
+    assert!(
+        ((d1 - d0) as f64).abs() < 1.5 * voxel,
+        "depth {d1} against {d0} (far side at {:.3})",
+        virtual_camera.depth_of(&ray.at(far.t))
+    );
+    assert_eq!(view.rgb.get_pixel(x, y), intact.rgb.get_pixel(x, y));
     Ok(())
 }
