@@ -658,7 +658,7 @@ impl<'a> Renderer<'a> {
             }
             for (j, c) in plane.sources[..n_cand].iter().enumerate() {
                 let ([h0x, h0y, h0z], [dhx, dhy, dhz]) = (c.h0, c.dh);
-                let ([t0x, t0y, t0z], [dpx, dpy, dpz]) = (c.to_src0, c.dp);
+                let ([t0x, t0y, t0z], [dpx, dpy, dpz]) = (c.to_src0, plane.dp);
                 let (pen, us, vs) = (&mut pen[j], &mut us[j], &mut vs[j]);
                 for l in 0..LANES {
                     let x = xs[l];
@@ -667,16 +667,9 @@ impl<'a> Renderer<'a> {
                     let (su, sv) = (hx * inv_z, hy * inv_z);
                     let inside =
                         hz > 0.0 && su >= 0.0 && sv >= 0.0 && su <= c.max_u && sv <= c.max_v;
-                    let (tx, ty, tz) = (t0x - x * dpx, t0y - x * dpy, t0z - x * dpz);
-                    let dist = (tx * tx + ty * ty + tz * tz).sqrt();
-                    let inv = 1.0 / dist;
-                    let (ax, ay, az) = (
-                        tx * inv - eye[0][l],
-                        ty * inv - eye[1][l],
-                        tz * inv - eye[2][l],
-                    );
-                    let angle = (ax * ax + ay * ay + az * az).sqrt();
-                    let p = angle + rw * (dist * inv_eye[l] - 1.0).max(0.0);
+                    let to_src = [t0x - x * dpx, t0y - x * dpy, t0z - x * dpz];
+                    let to_eye = [eye[0][l], eye[1][l], eye[2][l]];
+                    let p = penalty_of(to_src, to_eye, inv_eye[l], rw);
                     pen[l] = if inside { p } else { f32::INFINITY };
                     us[l] = su;
                     vs[l] = sv;
@@ -801,9 +794,8 @@ impl<'a> Renderer<'a> {
         if n == 0 {
             return None;
         }
-        // Penalty: the angle between the rays from p to the virtual and the source camera (as
-        // the chord of unit vectors) plus the weighted relative excess distance of the source.
-        // Single precision is ample for weights, and lets four sources share each square root.
+        // The penalties (`penalty_of`), four sources at a time so that they share each
+        // square root.
         let (ex, ey, ez) = (to_eye.x as f32, to_eye.y as f32, to_eye.z as f32);
         let (inv_eye, rw) = (inv_eye as f32, self.params.resolution_weight as f32);
         let mut penalty = [0f32; MAX_CANDIDATES];
@@ -816,11 +808,7 @@ impl<'a> Renderer<'a> {
             .take(n.div_ceil(4))
         {
             for l in 0..4 {
-                let dist = (x[l] * x[l] + y[l] * y[l] + z[l] * z[l]).sqrt();
-                let inv = 1.0 / dist;
-                let (ax, ay, az) = (x[l] * inv - ex, y[l] * inv - ey, z[l] * inv - ez);
-                let angle = (ax * ax + ay * ay + az * az).sqrt();
-                pen[l] = angle + rw * (dist * inv_eye - 1.0).max(0.0);
+                pen[l] = penalty_of([x[l], y[l], z[l]], [ex, ey, ez], inv_eye, rw);
             }
         }
         Some(self.mix(&found[..n], &penalty[..n]))
@@ -874,6 +862,25 @@ impl<'a> Renderer<'a> {
     }
 }
 
+/// The unstructured-lumigraph penalty of a source seen from a point: the angle between the
+/// rays to the virtual camera (`to_eye`, unit) and to the source (`to_src`, the vector from the
+/// point to the source's centre), as the chord of unit vectors, plus `rw` times the source's
+/// relative excess distance (`inv_eye` is one over the distance to the virtual camera).
+/// Single precision is ample for weights, and lets loops over sources or pixels vectorise.
+#[inline]
+fn penalty_of(to_src: [f32; 3], to_eye: [f32; 3], inv_eye: f32, rw: f32) -> f32 {
+    let [x, y, z] = to_src;
+    let dist = (x * x + y * y + z * z).sqrt();
+    let inv = 1.0 / dist;
+    let (ax, ay, az) = (
+        x * inv - to_eye[0],
+        y * inv - to_eye[1],
+        z * inv - to_eye[2],
+    );
+    let angle = (ax * ax + ay * ay + az * az).sqrt();
+    angle + rw * (dist * inv_eye - 1.0).max(0.0)
+}
+
 /// One row's focal plane, for [`Renderer::shade_focal_run`]: the point of pixel `u` is
 /// `centre + (ray0 + u ray_du) focal_depth`, so its homogeneous coordinates in each candidate
 /// source and its offset from each source's centre are linear in `u` too. Single precision:
@@ -882,6 +889,8 @@ impl<'a> Renderer<'a> {
 struct FocalRow {
     ray0: [f32; 3],
     ray_du: [f32; 3],
+    /// The point's step per pixel.
+    dp: [f32; 3],
     focal_depth: f64,
     sources: [FocalSource; MAX_CANDIDATES],
     len: usize,
@@ -895,9 +904,8 @@ struct FocalSource {
     /// Homogeneous image coordinates of the point of pixel 0, and their step per pixel.
     h0: [f32; 3],
     dh: [f32; 3],
-    /// The source's centre from the point of pixel 0, and the point's step per pixel.
+    /// The source's centre from the point of pixel 0.
     to_src0: [f32; 3],
-    dp: [f32; 3],
     /// The last pixel centre of the source's image.
     max_u: f32,
     max_v: f32,
@@ -926,7 +934,6 @@ impl FocalRow {
                 h0: s.homogeneous(&p0).map(|x| x as f32),
                 dh: s.direction(&dp).map(|x| x as f32),
                 to_src0: f(s.centre - p0),
-                dp: f(dp),
                 max_u: (s.width - 1) as f32,
                 max_v: (s.height - 1) as f32,
             };
@@ -934,6 +941,7 @@ impl FocalRow {
         Some(FocalRow {
             ray0: f(ray0),
             ray_du: f(ray_du),
+            dp: f(dp),
             focal_depth,
             sources,
             len: candidates.len().min(MAX_CANDIDATES),
