@@ -270,7 +270,6 @@ struct BlockScratch {
     /// order, and how many.
     samples: Vec<Sample>,
     counts: Vec<usize>,
-    views: usize,
     decide: Vec<crate::kernel::Emission>,
 }
 
@@ -293,7 +292,6 @@ impl BlockScratch {
                 n * cells
             ],
             counts: vec![0; cells],
-            views: n,
             decide: Vec::with_capacity(n),
         }
     }
@@ -420,7 +418,7 @@ fn decide_block(
     scratch.counts[..size].fill(0);
     let active = std::mem::take(&mut scratch.active);
     let m = active.len();
-    let n = scratch.views;
+    let n = projectors.len();
     for (a, &v) in active.iter().enumerate() {
         if alive == 0 {
             break;
