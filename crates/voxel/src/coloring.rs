@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
 use crate::kernel::{
-    Criterion, Footprint, Pixels, Projector, Sample, Tiles, View, claim, decide, prepare_views,
+    Criterion, Footprint, Pixels, Projector, Sample, View, ViewBits, claim, decide, prepare_views,
 };
 
 /// Parameters of [`voxel_coloring`] and [`voxel_coloring_reference`].
@@ -109,7 +109,7 @@ pub fn voxel_coloring(
     let (projectors, pixels, centres) = prepare(grid, views, params)?;
     let n = views.len();
     let [nx, ny, nz] = grid.dims();
-    let mut tiles: Vec<Tiles> = pixels.par_iter().map(Tiles::new).collect();
+    let mut bits: Vec<ViewBits> = pixels.par_iter().map(ViewBits::new).collect();
     let mut model = VoxelModel::empty(*grid);
     let mut stats = KernelStats {
         voxels: grid.len(),
@@ -121,7 +121,7 @@ pub fn voxel_coloring(
     for k in (0..nz).rev() {
         // Decide the layer block by block, blocks in parallel, against the claims of the
         // layers above.
-        let tiles_ref = &tiles;
+        let bits_ref = &bits;
         let blocks: Vec<BlockResult> = (0..bx * by)
             .into_par_iter()
             .map_init(
@@ -137,7 +137,7 @@ pub fn voxel_coloring(
                         &projectors,
                         &pixels,
                         &centres,
-                        tiles_ref,
+                        bits_ref,
                         params,
                         scratch,
                     )
@@ -156,14 +156,12 @@ pub fn voxel_coloring(
             }
         }
         // Claim the layer's footprints, views in parallel.
-        tiles
-            .par_iter_mut()
+        bits.par_iter_mut()
             .zip(claims.par_iter_mut())
-            .for_each(|(tl, fps)| {
+            .for_each(|(b, fps)| {
                 for fp in fps.drain(..) {
-                    tl.claim(&fp);
+                    b.claim(&fp);
                 }
-                tl.settle();
             });
     }
     if params.visible_only {
@@ -334,7 +332,7 @@ impl BlockFootprints {
 
 /// Decides the voxels `[i0..i1) x [j0..j1)` of layer `k`.
 ///
-/// Per view, the block's projected bounds against the tile summaries settle most questions
+/// Per view, the block's projected bounds against the view bits settle most questions
 /// for all its voxels at once, exactly: a view whose mask is background under the whole
 /// bound rejects the block; one that is foreground under it rejects none of its voxels; one
 /// that is claimed under it sees none of them. The views left open are then asked one at a
@@ -350,7 +348,7 @@ fn decide_block(
     projectors: &[Projector],
     pixels: &[Pixels<'_>],
     centres: &[Point3<f64>],
-    tiles: &[Tiles],
+    bits: &[ViewBits],
     params: &ColoringParams,
     scratch: &mut BlockScratch,
 ) -> BlockResult {
@@ -370,7 +368,7 @@ fn decide_block(
             Ok(None) => {}
             Ok(Some(bound)) => {
                 if has_mask {
-                    match tiles[v].mask_class(&bound) {
+                    match bits[v].mask_class(&bound) {
                         0 => {
                             out.rejected = size;
                             return out;
@@ -379,7 +377,7 @@ fn decide_block(
                         _ => scratch.silhouette.push(v),
                     }
                 }
-                if !tiles[v].all_claimed(&bound) {
+                if !bits[v].all_resolved(&bound) {
                     scratch.active.push(v);
                 }
             }
@@ -404,7 +402,7 @@ fn decide_block(
             .footprints
             .of(grid, &projectors[v], v, (i0, i1), (j0, j1), k);
         for (x, fp) in fps[..size].iter().enumerate() {
-            if scratch.alive[x] && !fp.is_empty() && tiles[v].all_background(&pixels[v], fp) {
+            if scratch.alive[x] && !fp.is_empty() && bits[v].all_background(fp) {
                 scratch.alive[x] = false;
                 alive -= 1;
             }
@@ -437,10 +435,10 @@ fn decide_block(
                 alive -= 1;
                 continue;
             }
-            if fp.is_empty() || tiles[v].all_claimed(fp) {
+            if fp.is_empty() || bits[v].all_resolved(fp) {
                 continue;
             }
-            let (sum, c) = tiles[v].gather(&pixels[v], fp);
+            let (sum, c) = bits[v].gather(&pixels[v], fp);
             if c > 0 {
                 scratch.samples[x * n + count] = Sample::new(v, sum, c);
                 scratch.counts[x] = count + 1;

@@ -320,9 +320,6 @@ impl Projector {
     }
 }
 
-/// Edge of the square tiles that summarise masks and claims, pixels.
-pub(crate) const TILE: u32 = 4;
-
 /// `floor(x + 0.5)`, for `x` held within `[-1024, 2^20]` (NaN goes to -1024): every
 /// footprint further off the image is clipped away either way.
 ///
@@ -409,197 +406,207 @@ impl<'a> Pixels<'a> {
     }
 }
 
-/// The fast kernel's per-view state: which pixels a voxel may still gather from, and
-/// per-tile summaries of that and of the mask ([`TILE`] x [`TILE`] pixels, small enough to
-/// stay in cache) that settle most questions exactly without visiting pixels.
-#[derive(Debug, Clone)]
-pub(crate) struct Tiles {
-    pub(crate) cols: usize,
-    /// Per pixel: 0 while it is foreground and unclaimed, 1 once it is claimed or when it is
-    /// background. A gather then reads one array instead of the claims and the mask.
-    pub(crate) resolved: Vec<u8>,
-    /// Per tile: 0 = every pixel background, 2 = every pixel foreground, 1 = mixed (no mask:
-    /// all 2).
-    pub(crate) mask: Vec<u8>,
-    /// Per tile: 1 when every pixel is resolved (so no voxel can gather from the tile any
-    /// more).
-    pub(crate) full: Vec<u8>,
-    /// Tiles claimed into since the last [`Tiles::settle`], to be checked for fullness.
-    dirty: Vec<u32>,
-    /// Per tile: listed in `dirty`.
-    listed: Vec<bool>,
-    width: usize,
-    height: usize,
+/// One bit per pixel of an image, in rows of 64-pixel words (bit `i` of word `w` is pixel
+/// `64 w + i`): small enough that every view's stays in cache, and a footprint's row is
+/// tested or set a word at a time.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct PixelBits {
+    words: usize,
+    bits: Vec<u64>,
 }
 
-impl Tiles {
+impl PixelBits {
+    /// The bits of a `width` x `height` image, set where `set(pixel index)` says.
+    pub(crate) fn from_fn(width: usize, height: usize, set: impl Fn(usize) -> bool) -> Self {
+        let words = width.div_ceil(64);
+        let mut bits = vec![0u64; words * height];
+        for y in 0..height {
+            for x in 0..width {
+                if set(y * width + x) {
+                    bits[y * words + x / 64] |= 1 << (x % 64);
+                }
+            }
+        }
+        PixelBits { words, bits }
+    }
+
+    #[inline]
+    fn row(&self, v: u32) -> &[u64] {
+        let at = v as usize * self.words;
+        &self.bits[at..at + self.words]
+    }
+
+    /// True when `test(word, mask)` holds for every word of every row of `fp` (its pixels
+    /// in the word given by the mask); true for an empty footprint.
+    #[inline]
+    fn every(&self, fp: &Footprint, test: impl Fn(u64, u64) -> bool) -> bool {
+        if fp.is_empty() {
+            return true;
+        }
+        let span = Span::of(fp);
+        (fp.v0..=fp.v1).all(|v| span.words(self.row(v)).all(|(w, m)| test(w, m)))
+    }
+
+    /// True when every pixel of `fp` is set (also for an empty footprint).
+    #[inline]
+    pub(crate) fn all(&self, fp: &Footprint) -> bool {
+        self.every(fp, |w, m| w & m == m)
+    }
+
+    /// True when no pixel of `fp` is set.
+    #[inline]
+    pub(crate) fn none(&self, fp: &Footprint) -> bool {
+        self.every(fp, |w, m| w & m == 0)
+    }
+
+    /// Sets every pixel of `fp`.
+    #[inline]
+    pub(crate) fn set(&mut self, fp: &Footprint) {
+        if fp.is_empty() {
+            return;
+        }
+        let span = Span::of(fp);
+        for v in fp.v0..=fp.v1 {
+            let at = v as usize * self.words;
+            for w in span.w0..=span.w1 {
+                self.bits[at + w] |= span.mask(w);
+            }
+        }
+    }
+}
+
+/// The words of a row that hold a footprint's pixels `u0..=u1`, and the masks of those
+/// pixels in the first and the last (the words between are whole).
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    w0: usize,
+    w1: usize,
+    first: u64,
+    last: u64,
+}
+
+impl Span {
+    #[inline]
+    fn of(fp: &Footprint) -> Self {
+        Span {
+            w0: (fp.u0 / 64) as usize,
+            w1: (fp.u1 / 64) as usize,
+            first: u64::MAX << (fp.u0 % 64),
+            last: u64::MAX >> (63 - fp.u1 % 64),
+        }
+    }
+
+    /// The mask of the footprint's pixels in word `w` (from `w0` to `w1`).
+    #[inline]
+    fn mask(&self, w: usize) -> u64 {
+        let mut m = u64::MAX;
+        if w == self.w0 {
+            m &= self.first;
+        }
+        if w == self.w1 {
+            m &= self.last;
+        }
+        m
+    }
+
+    /// The span's words of `row` with their masks.
+    #[inline]
+    fn words<'r>(&self, row: &'r [u64]) -> impl Iterator<Item = (u64, u64)> + use<'r> {
+        let span = *self;
+        row[span.w0..=span.w1]
+            .iter()
+            .enumerate()
+            .map(move |(i, &w)| (w, span.mask(span.w0 + i)))
+    }
+}
+
+/// The fast kernel's per-view state: which pixels are background and which a voxel may no
+/// longer gather from, a bit per pixel.
+#[derive(Debug, Clone)]
+pub(crate) struct ViewBits {
+    /// Set where the mask is background; `None` without a mask.
+    background: Option<PixelBits>,
+    /// Set once a pixel is resolved: claimed by a kept voxel, or background. A gather then
+    /// reads one bit instead of the claims and the mask.
+    resolved: PixelBits,
+    width: usize,
+}
+
+impl ViewBits {
     pub(crate) fn new(px: &Pixels<'_>) -> Self {
         let (w, h) = (px.width, px.height());
-        let t = TILE as usize;
-        let (cols, rows) = (w.div_ceil(t), h.div_ceil(t));
-        let mut mask = vec![2u8; cols * rows];
-        let resolved: Vec<u8> = match px.mask {
-            Some(m) => m.iter().map(|&b| u8::from(b == 0)).collect(),
-            None => vec![0; w * h],
-        };
-        if px.mask.is_some() {
-            for ty in 0..rows {
-                for tx in 0..cols {
-                    let (mut fg, mut bg) = (false, false);
-                    for y in ty * t..((ty + 1) * t).min(h) {
-                        for &r in &resolved[y * w + tx * t..y * w + ((tx + 1) * t).min(w)] {
-                            if r == 0 {
-                                fg = true;
-                            } else {
-                                bg = true;
-                            }
-                        }
-                    }
-                    mask[ty * cols + tx] = match (fg, bg) {
-                        (false, _) => 0,
-                        (true, false) => 2,
-                        (true, true) => 1,
-                    };
-                }
-            }
-        }
-        let full = mask.iter().map(|&m| u8::from(m == 0)).collect();
-        Tiles {
-            cols,
+        let background = px
+            .mask
+            .map(|m| PixelBits::from_fn(w, h, |i| m.get(i).is_some_and(|&b| b == 0)));
+        let resolved = background
+            .clone()
+            .unwrap_or_else(|| PixelBits::from_fn(w, h, |_| false));
+        ViewBits {
+            background,
             resolved,
-            mask,
-            full,
-            dirty: Vec::new(),
-            listed: vec![false; cols * rows],
             width: w,
-            height: h,
         }
     }
 
-    #[inline]
-    fn range(fp: &Footprint) -> (usize, usize, usize, usize) {
-        (
-            (fp.u0 / TILE) as usize,
-            (fp.u1 / TILE) as usize,
-            (fp.v0 / TILE) as usize,
-            (fp.v1 / TILE) as usize,
-        )
-    }
-
-    /// Exact: every footprint pixel is background (false without a mask).
-    #[inline]
-    pub(crate) fn all_background(&self, px: &Pixels<'_>, fp: &Footprint) -> bool {
-        if px.mask.is_none() {
-            return false;
-        }
-        let (tx0, tx1, ty0, ty1) = Self::range(fp);
-        let mut mixed = false;
-        for ty in ty0..ty1 + 1 {
-            let row = ty * self.cols;
-            for &m in &self.mask[row + tx0..row + tx1 + 1] {
-                match m {
-                    2 => return false,
-                    1 => mixed = true,
-                    _ => {}
-                }
-            }
-        }
-        !mixed || px.all_background(fp)
-    }
-
-    /// What the mask says of every pixel of `fp`: 0 all background, 2 all foreground,
-    /// 1 unknown from the tiles.
+    /// What the mask says of every pixel of `fp`: 0 all background, 2 all foreground (or no
+    /// mask), 1 some of each.
     #[inline]
     pub(crate) fn mask_class(&self, fp: &Footprint) -> u8 {
-        let (tx0, tx1, ty0, ty1) = Self::range(fp);
-        let (mut any_bg, mut any_other) = (false, false);
-        let mut all_fg = true;
-        for ty in ty0..ty1 + 1 {
-            let row = ty * self.cols;
-            for &m in &self.mask[row + tx0..row + tx1 + 1] {
-                match m {
-                    0 => {
-                        any_bg = true;
-                        all_fg = false;
-                    }
-                    2 => any_other = true,
-                    _ => {
-                        all_fg = false;
-                        any_other = true;
-                    }
-                }
-            }
-        }
-        if all_fg {
-            2
-        } else if any_bg && !any_other {
-            0
-        } else {
-            1
+        match &self.background {
+            None => 2,
+            Some(bg) if bg.none(fp) => 2,
+            Some(bg) if bg.all(fp) => 0,
+            Some(_) => 1,
         }
     }
 
-    /// Exact: every footprint pixel is claimed or background (it has nothing to gather).
+    /// Every pixel of `fp` is background (false without a mask).
     #[inline]
-    pub(crate) fn all_claimed(&self, fp: &Footprint) -> bool {
-        let (tx0, tx1, ty0, ty1) = Self::range(fp);
-        (ty0..ty1 + 1).all(|ty| {
-            let row = ty * self.cols;
-            self.full[row + tx0..row + tx1 + 1].iter().all(|&f| f != 0)
-        })
+    pub(crate) fn all_background(&self, fp: &Footprint) -> bool {
+        self.background.as_ref().is_some_and(|bg| bg.all(fp))
     }
 
-    /// Sum and count of the footprint pixels not yet resolved: the same as
-    /// [`Pixels::gather`] with the claims and the mask, from one array.
+    /// Every pixel of `fp` is claimed or background: it has nothing to gather.
+    #[inline]
+    pub(crate) fn all_resolved(&self, fp: &Footprint) -> bool {
+        self.resolved.all(fp)
+    }
+
+    /// Sum and count of the pixels of `fp` not yet resolved: the same as [`Pixels::gather`]
+    /// with the claims and the mask.
     #[inline]
     pub(crate) fn gather(&self, px: &Pixels<'_>, fp: &Footprint) -> ([u32; 3], u32) {
-        // Without branches: whether a pixel is open is close to random along a claim edge.
         let mut sum = [0u32; 3];
         let mut n = 0u32;
-        let (u0, u1) = (fp.u0 as usize, fp.u1 as usize + 1);
-        for v in fp.v0 as usize..fp.v1 as usize + 1 {
-            let row = v * self.width;
-            let resolved = &self.resolved[row + u0..row + u1];
-            let rgb = &px.rgb[3 * (row + u0)..3 * (row + u1)];
-            for (&r, c) in resolved.iter().zip(rgb.chunks_exact(3)) {
-                let open = u32::from(r == 0);
-                sum[0] += u32::from(c[0]) * open;
-                sum[1] += u32::from(c[1]) * open;
-                sum[2] += u32::from(c[2]) * open;
-                n += open;
+        if fp.is_empty() {
+            return (sum, n);
+        }
+        let mut add = |i: usize| {
+            let c = &px.rgb[3 * i..3 * i + 3];
+            sum[0] += u32::from(c[0]);
+            sum[1] += u32::from(c[1]);
+            sum[2] += u32::from(c[2]);
+        };
+        let span = Span::of(fp);
+        for v in fp.v0..=fp.v1 {
+            let base = v as usize * self.width + 64 * span.w0;
+            for (i, (w, m)) in span.words(self.resolved.row(v)).enumerate() {
+                let mut open = !w & m;
+                n += open.count_ones();
+                let first = base + 64 * i;
+                while open != 0 {
+                    add(first + open.trailing_zeros() as usize);
+                    open &= open - 1;
+                }
             }
         }
         (sum, n)
     }
 
-    /// Claims the pixels of `fp`; the tile summaries follow at the next [`Tiles::settle`].
+    /// Claims the pixels of `fp`.
+    #[inline]
     pub(crate) fn claim(&mut self, fp: &Footprint) {
-        claim(&mut self.resolved, self.width, fp);
-        let (tx0, tx1, ty0, ty1) = Self::range(fp);
-        for ty in ty0..ty1 + 1 {
-            for t in ty * self.cols + tx0..ty * self.cols + tx1 + 1 {
-                if self.full[t] == 0 && !self.listed[t] {
-                    self.listed[t] = true;
-                    self.dirty.push(t as u32);
-                }
-            }
-        }
-    }
-
-    /// Brings the tile summaries up to date with the claims made since the last call.
-    pub(crate) fn settle(&mut self) {
-        let t = TILE as usize;
-        for tile in self.dirty.drain(..) {
-            let tile = tile as usize;
-            self.listed[tile] = false;
-            let (tx, ty) = (tile % self.cols, tile / self.cols);
-            let (x0, x1) = (tx * t, ((tx + 1) * t).min(self.width));
-            let full = (ty * t..((ty + 1) * t).min(self.height)).all(|y| {
-                let row = &self.resolved[y * self.width + x0..y * self.width + x1];
-                row.iter().all(|&r| r != 0)
-            });
-            self.full[tile] = u8::from(full);
-        }
+        self.resolved.set(fp);
     }
 }
 
@@ -869,6 +876,83 @@ mod tests {
                 }
             }
             proptest::prop_assert!(empty + seen == (nx - 3) * ny * nz);
+        }
+    }
+
+    /// A footprint inside a `width` x `height` image from four numbers in `[0, 1)`.
+    fn footprint_in(width: u32, height: u32, f: [f64; 4]) -> Footprint {
+        let at = |x: f64, n: u32| ((x * f64::from(n)) as u32).min(n - 1);
+        let (a, b) = (at(f[0], width), at(f[1], width));
+        let (c, d) = (at(f[2], height), at(f[3], height));
+        Footprint {
+            u0: a.min(b),
+            u1: a.max(b),
+            v0: c.min(d),
+            v1: c.max(d),
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+        /// The fast kernel's bits answer every question as the per-pixel claims and mask
+        /// do, for images of one word a row or several, footprints within a word or across
+        /// words, with a mask or without.
+        #[test]
+        fn view_bits_agree_with_pixels_and_claims(
+            width in 1u32..200,
+            height in 1u32..40,
+            seed in 0u64..u64::MAX,
+            with_mask in proptest::bool::ANY,
+            claims in proptest::collection::vec(proptest::array::uniform4(0.0f64..1.0), 0..12),
+            queries in proptest::collection::vec(proptest::array::uniform4(0.0f64..1.0), 1..24),
+        ) {
+            let mut state = seed | 1;
+            let mut next = move || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                state
+            };
+            let image = RgbImage::from_fn(width, height, |_, _| {
+                let r = next();
+                image::Rgb([r as u8, (r >> 8) as u8, (r >> 16) as u8])
+            });
+            // Background in runs, so that footprints meet wholly background pixels too.
+            let mask = GrayImage::from_fn(width, height, |x, y| {
+                image::Luma([if (x / 7 + y / 5 + (seed as u32 % 3)) % 3 == 0 { 0 } else { 255 }])
+            });
+            let px = Pixels {
+                rgb: image.as_raw(),
+                mask: with_mask.then_some(mask.as_raw().as_slice()),
+                width: width as usize,
+            };
+            let mut bits = ViewBits::new(&px);
+            let mut claimed = vec![0u8; (width * height) as usize];
+            for f in claims {
+                let fp = footprint_in(width, height, f);
+                bits.claim(&fp);
+                claim(&mut claimed, width as usize, &fp);
+            }
+            for f in queries {
+                let fp = footprint_in(width, height, f);
+                let (sum, n) = px.gather(&fp, &claimed);
+                proptest::prop_assert_eq!(bits.gather(&px, &fp), (sum, n));
+                proptest::prop_assert_eq!(bits.all_resolved(&fp), n == 0);
+                proptest::prop_assert_eq!(bits.all_background(&fp), px.all_background(&fp));
+                let background = px.mask.map_or(0, |m| {
+                    (fp.v0..=fp.v1)
+                        .flat_map(|v| (fp.u0..=fp.u1).map(move |u| (v * width + u) as usize))
+                        .filter(|&i| m[i] == 0)
+                        .count()
+                });
+                let expected = match background {
+                    0 => 2,
+                    b if b as u32 == fp.area() => 0,
+                    _ => 1,
+                };
+                proptest::prop_assert_eq!(bits.mask_class(&fp), expected);
+            }
         }
     }
 
