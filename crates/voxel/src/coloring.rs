@@ -124,6 +124,7 @@ pub fn voxel_coloring(
         let bits_ref = &bits;
         let blocks: Vec<BlockResult> = (0..bx * by)
             .into_par_iter()
+            .with_min_len(8)
             .map_init(
                 || BlockScratch::new(n),
                 |scratch, b| {

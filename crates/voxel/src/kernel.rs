@@ -746,10 +746,12 @@ fn angular_difference(
             g
         }
     };
+    // `(a + step) % n` without a division per pair (`a + step < 2 n`).
+    let wrap = |i: usize| if i >= n { i - n } else { i };
     let mut pairs = 0usize;
     for a in 0..n {
         for step in 1..n {
-            let b = (a + step) % n;
+            let b = wrap(a + step);
             if gap(scratch, a, b) > w {
                 break;
             }
@@ -783,7 +785,7 @@ fn angular_difference(
             continue;
         }
         let arc =
-            0.5 * (gap(scratch, (a + n - 1) % n, a).min(w) + gap(scratch, a, (a + 1) % n).min(w));
+            0.5 * (gap(scratch, wrap(a + n - 1), a).min(w) + gap(scratch, a, wrap(a + 1)).min(w));
         sum += arc as f32 * e.sum / e.count as f32;
         weights += arc as f32;
     }
