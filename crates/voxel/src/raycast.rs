@@ -144,7 +144,8 @@ impl VoxelModel {
 pub fn splat_depths(centres: &[Point3<f64>], voxel_size: f64, camera: &Camera, out: &mut [f32]) {
     let (w, h) = (camera.size.width as usize, camera.size.height as usize);
     out.fill(f32::INFINITY);
-    if out.len() != w * h || w == 0 {
+    // An empty image (a size edited to zero after the camera was made) has no rows to band.
+    if out.len() != w * h || out.is_empty() {
         return;
     }
     let f = camera.intrinsics.fx.max(camera.intrinsics.fy);
@@ -329,6 +330,24 @@ mod tests {
         for threads in [2, 3, 7] {
             assert_eq!(splat(threads)?, one, "{threads} threads");
         }
+        Ok(())
+    }
+
+    /// A camera whose size was edited to a zero height splats into its empty buffer
+    /// without a panic.
+    #[test]
+    fn splatting_into_an_empty_image_does_nothing() -> Result<(), Box<dyn std::error::Error>> {
+        let ring = aibr_camera::CircularMotion::ring(1.5, 0.8, 0.2)?;
+        let mut camera = Camera::new(
+            aibr_camera::Intrinsics::new(150.0, 150.0, 47.5, 35.5),
+            aibr_camera::Distortion::NONE,
+            ring.cam_from_world(aibr_camera::Angle::from_degrees(20.0)),
+            aibr_camera::ImageSize::new(96, 71),
+        )?;
+        camera.size = aibr_camera::ImageSize::new(96, 0);
+        let mut out: Vec<f32> = Vec::new();
+        splat_depths(&[Point3::new(0.0, 0.0, 0.1)], 0.05, &camera, &mut out);
+        assert!(out.is_empty());
         Ok(())
     }
 
