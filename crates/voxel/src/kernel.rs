@@ -374,18 +374,7 @@ impl<'a> Pixels<'a> {
     /// Sum and count of the footprint pixels not yet claimed (and foreground, with a mask).
     #[inline]
     pub(crate) fn gather(&self, fp: &Footprint, claimed: &[u8]) -> ([u32; 3], u32) {
-        self.sum_where(fp, |i| {
-            claimed[i] == 0 && self.mask.is_none_or(|m| m[i] != 0)
-        })
-    }
-
-    /// Sum and count of the footprint pixels (by index) that `open` accepts, in row order.
-    #[inline]
-    pub(crate) fn sum_where(
-        &self,
-        fp: &Footprint,
-        open: impl Fn(usize) -> bool,
-    ) -> ([u32; 3], u32) {
+        let open = |i: usize| claimed[i] == 0 && self.mask.is_none_or(|m| m[i] != 0);
         let mut sum = [0u32; 3];
         let mut n = 0u32;
         for v in fp.v0..=fp.v1 {
@@ -409,7 +398,7 @@ impl<'a> Pixels<'a> {
 /// One bit per pixel of an image, in rows of 64-pixel words (bit `i` of word `w` is pixel
 /// `64 w + i`): small enough that every view's stays in cache, and a footprint's row is
 /// tested or set a word at a time.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone)]
 pub(crate) struct PixelBits {
     words: usize,
     bits: Vec<u64>,
@@ -529,7 +518,6 @@ pub(crate) struct ViewBits {
     /// Set once a pixel is resolved: claimed by a kept voxel, or background. A gather then
     /// reads one bit instead of the claims and the mask.
     resolved: PixelBits,
-    width: usize,
 }
 
 impl ViewBits {
@@ -544,7 +532,6 @@ impl ViewBits {
         ViewBits {
             background,
             resolved,
-            width: w,
         }
     }
 
@@ -589,7 +576,7 @@ impl ViewBits {
         };
         let span = Span::of(fp);
         for v in fp.v0..=fp.v1 {
-            let base = v as usize * self.width + 64 * span.w0;
+            let base = v as usize * px.width + 64 * span.w0;
             for (i, (w, m)) in span.words(self.resolved.row(v)).enumerate() {
                 let mut open = !w & m;
                 n += open.count_ones();
