@@ -591,18 +591,19 @@ impl<'a> Renderer<'a> {
                     // Moved back by up to the offset, the point is that much deeper in every
                     // source than the model's surface the source depths come from.
                     let tolerance = self.tolerance + offsets[best].max(0.0);
-                    let refined = self
-                        .blend(&p, &centre, candidates, Some(tolerance))
-                        .or_else(|| self.blend(&p, &centre, candidates, None));
+                    let refined = self.blend_preferring_seen(&p, &centre, candidates, tolerance);
                     // Where no candidate takes the refined point (off their images), the
                     // pixel is blended where the main pass found it seen.
                     let (colour, depth) = match refined {
                         Some(c) => (Some(c), zb as f32),
                         None => {
                             let at = centre + dir * z as f64;
-                            let colour = self
-                                .blend(&at, &centre, candidates, Some(self.tolerance))
-                                .or_else(|| self.blend(&at, &centre, candidates, None));
+                            let colour = self.blend_preferring_seen(
+                                &at,
+                                &centre,
+                                candidates,
+                                self.tolerance,
+                            );
                             (colour, z)
                         }
                     };
@@ -812,6 +813,19 @@ impl<'a> Renderer<'a> {
             }
         }
         Some(self.mix(&found[..n], &penalty[..n]))
+    }
+
+    /// The blend of the candidates that see `p` within `tolerance`, or, when none does, of
+    /// those on whose images it lies (the refinement's rule for a moved point).
+    fn blend_preferring_seen(
+        &self,
+        p: &Point3<f64>,
+        eye: &Point3<f64>,
+        candidates: &[(f64, usize)],
+        tolerance: f64,
+    ) -> Option<[u8; 3]> {
+        self.blend(p, eye, candidates, Some(tolerance))
+            .or_else(|| self.blend(p, eye, candidates, None))
     }
 
     /// The blend proper: the `k` sources of least penalty among `found` (source, `u`, `v`),
