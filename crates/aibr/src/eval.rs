@@ -127,6 +127,10 @@ pub struct Checkpoint {
     pub evaluated: usize,
     /// Mean masked PSNR of the novel views, dB.
     pub mean_psnr: f64,
+    /// Masked PSNR of the novel views' mean squared error, dB
+    /// ([`aibr_render::metrics::pooled_psnr`]): their errors pooled before the logarithm, so
+    /// the views that render worst weigh the most. Never above `mean_psnr`.
+    pub pooled_psnr: f64,
     /// Mean masked SSIM.
     pub mean_ssim: f64,
     /// The worst arc between neighbouring views: its mean masked PSNR, dB.
@@ -377,6 +381,7 @@ fn measure<R: EvalRig>(
         pans,
         evaluated: novel.len(),
         mean_psnr: mean(&all, |v| v.psnr),
+        pooled_psnr: metrics::pooled_psnr(novel.iter().map(|v| v.psnr)).unwrap_or(0.0),
         mean_ssim: mean(&all, |v| v.ssim),
         worst_arc_psnr: worst.0,
         worst_arc: worst.1,

@@ -462,16 +462,17 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     }
 
     let mut table = String::from(
-        "<table><tr><th>strategy</th><th>views</th><th>mean PSNR (dB)</th><th>mean SSIM</th><th>worst arc (dB)</th><th>worst arc (degrees)</th></tr>\n",
+        "<table><tr><th>strategy</th><th>views</th><th>mean PSNR (dB)</th><th>pooled PSNR (dB)</th><th>mean SSIM</th><th>worst arc (dB)</th><th>worst arc (degrees)</th></tr>\n",
     );
     for r in &results {
         for c in &r.checkpoints {
             writeln!(
                 table,
-                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.3}</td><td>{:.2}</td><td>{:.1} to {:.1}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:.3}</td><td>{:.2}</td><td>{:.1} to {:.1}</td></tr>",
                 r.strategy.name(),
                 c.views,
                 c.mean_psnr,
+                c.pooled_psnr,
                 c.mean_ssim,
                 c.worst_arc_psnr,
                 c.worst_arc.0.degrees(),
@@ -490,7 +491,9 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
 <p>{initial} uniform views first, then one view at a time up to {max}: <b>active</b> splits the
 arc the consistency estimate ranks worst, <b>uniform</b> spreads every view evenly. Each
 checkpoint renders every uncaptured pan angle (every {step:.0}°) from a {grid}<sup>3</sup> model
-and compares it with the ground truth inside the object mask. Made by <code>aibr demo</code> in
+and compares it with the ground truth inside the object mask. <i>Mean PSNR</i> averages the
+novel views' PSNRs; <i>pooled PSNR</i> is the PSNR of their mean squared error, where the views
+that render worst (on a mirror, say) weigh the most. Made by <code>aibr demo</code> in
 {elapsed:.0} s.</p>
 <h2>Results</h2>
 {table}

@@ -866,6 +866,7 @@ fn eval(a: EvalArgs) -> Result<()> {
                         "views": c.views,
                         "evaluated_views": c.evaluated,
                         "mean_masked_psnr_db": c.mean_psnr,
+                        "pooled_masked_psnr_db": c.pooled_psnr,
                         "mean_masked_ssim": c.mean_ssim,
                         "worst_arc_psnr_db": c.worst_arc_psnr,
                         "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
@@ -892,16 +893,17 @@ fn eval(a: EvalArgs) -> Result<()> {
 /// The short table of an evaluation: one line per strategy and checkpoint.
 fn print_eval_table(results: &[aibr::StrategyEval]) {
     println!(
-        "{:<8} {:>5} {:>12} {:>8} {:>16}",
-        "strategy", "views", "PSNR (dB)", "SSIM", "worst arc (dB)"
+        "{:<8} {:>5} {:>12} {:>14} {:>8} {:>16}",
+        "strategy", "views", "PSNR (dB)", "pooled (dB)", "SSIM", "worst arc (dB)"
     );
     for r in results {
         for c in &r.checkpoints {
             println!(
-                "{:<8} {:>5} {:>12.2} {:>8.3} {:>16.2}",
+                "{:<8} {:>5} {:>12.2} {:>14.2} {:>8.3} {:>16.2}",
                 r.strategy.name(),
                 c.views,
                 c.mean_psnr,
+                c.pooled_psnr,
                 c.mean_ssim,
                 c.worst_arc_psnr
             );

@@ -515,6 +515,14 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
             assert_eq!(values.len(), novel.len());
             let mean = values.iter().sum::<f64>() / values.len() as f64;
             assert!((mean - psnr).abs() < 1e-9, "{mean} vs {psnr}");
+            // And the pooled one is the PSNR of their mean squared error.
+            let mse =
+                values.iter().map(|p| 10f64.powf(-p / 10.0)).sum::<f64>() / values.len() as f64;
+            let pooled = c["pooled_masked_psnr_db"]
+                .as_f64()
+                .ok_or("no pooled psnr")?;
+            assert!((pooled + 10.0 * mse.log10()).abs() < 1e-9, "{pooled}");
+            assert!(pooled <= psnr + 1e-9);
             let pans: Vec<f64> = novel.iter().filter_map(|v| v["pan_deg"].as_f64()).collect();
             assert!(pans.windows(2).all(|w| w[0] < w[1]), "{pans:?}");
         }

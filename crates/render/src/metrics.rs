@@ -57,6 +57,32 @@ pub fn psnr(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
     })
 }
 
+/// The PSNR (dB, peak 255) of the mean of several images' squared errors, given each
+/// image's PSNR ([`psnr`]): the errors are pooled before the logarithm, so the worst images
+/// weigh the most, where a mean of the PSNRs weighs every image's error ratio alike. Each
+/// image counts once, whatever its size or mask. `None` for no images; an infinite PSNR (an
+/// exact image) counts as no error.
+///
+/// Never above the mean of the PSNRs (the logarithm is concave), and equal to it when every
+/// image has the same PSNR:
+///
+/// ```
+/// use aibr_render::metrics::pooled_psnr;
+/// // Errors of 10 and 30 dB pool to the 10 dB image's error halved.
+/// let pooled = pooled_psnr([10.0, 30.0]).unwrap();
+/// assert!((pooled - 12.97).abs() < 0.01);
+/// let same = pooled_psnr([25.0, 25.0]).unwrap();
+/// assert!((same - 25.0).abs() < 1e-9);
+/// assert_eq!(pooled_psnr(std::iter::empty()), None);
+/// ```
+pub fn pooled_psnr(psnrs: impl IntoIterator<Item = f64>) -> Option<f64> {
+    // In units of the peak's square: 10^(-psnr / 10) is the image's mean squared error.
+    let (sum, n) = psnrs.into_iter().fold((0.0f64, 0usize), |(sum, n), p| {
+        (sum + 10f64.powf(-p / 10.0), n + 1)
+    });
+    (n > 0).then(|| -10.0 * (sum / n as f64).log10())
+}
+
 /// The pixel rectangle `[x0, x1) x [y0, y1)` over which SSIM is averaged.
 #[derive(Debug, Clone, Copy)]
 struct Window {
@@ -209,4 +235,61 @@ pub fn ssim(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
         *mean = sum / n.max(1) as f64;
     }
     Ok(channel_means.iter().sum::<f64>() / 3.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Pooling lies between the worst PSNR and the mean of the PSNRs.
+        #[test]
+        fn pooled_psnr_lies_between_the_worst_and_the_mean(
+            psnrs in prop::collection::vec(0.0f64..80.0, 1..50),
+        ) {
+            let pooled = pooled_psnr(psnrs.iter().copied()).ok_or_else(|| TestCaseError::fail("no value"))?;
+            let mean = psnrs.iter().sum::<f64>() / psnrs.len() as f64;
+            let worst = psnrs.iter().copied().fold(f64::INFINITY, f64::min);
+            prop_assert!(pooled <= mean + 1e-9, "pooled {pooled} above mean {mean}");
+            prop_assert!(pooled >= worst - 1e-9, "pooled {pooled} below worst {worst}");
+            // One image alone, or all alike: the same PSNR.
+            let alike = pooled_psnr(std::iter::repeat_n(psnrs[0], psnrs.len()))
+                .ok_or_else(|| TestCaseError::fail("no value"))?;
+            prop_assert!((alike - psnrs[0]).abs() < 1e-9);
+        }
+    }
+
+    /// The pool of two images' PSNRs is that of their pixels put side by side.
+    #[test]
+    fn pooled_psnr_is_the_psnr_of_the_images_side_by_side() -> Result<()> {
+        let truth = RgbImage::from_fn(8, 4, |x, y| image::Rgb([(x * 20) as u8, (y * 50) as u8, 9]));
+        let a = RgbImage::from_fn(8, 4, |x, y| {
+            image::Rgb([(x * 20 + 3) as u8, (y * 50) as u8, 9])
+        });
+        let b = RgbImage::from_fn(8, 4, |x, y| {
+            image::Rgb([(x * 20) as u8, (y * 50) as u8, (9 + x + y) as u8])
+        });
+        // The two pairs side by side, as one image of twice the width.
+        let side = |l: &RgbImage, r: &RgbImage| {
+            RgbImage::from_fn(16, 4, |x, y| {
+                if x < 8 {
+                    *l.get_pixel(x, y)
+                } else {
+                    *r.get_pixel(x - 8, y)
+                }
+            })
+        };
+        let whole = psnr(&side(&truth, &truth), &side(&a, &b), None)?;
+        let pooled = pooled_psnr([psnr(&truth, &a, None)?, psnr(&truth, &b, None)?]);
+        assert!(
+            pooled.is_some_and(|p| (p - whole).abs() < 1e-9),
+            "{pooled:?} against {whole}"
+        );
+        // An exact image adds no error, and halves the mean.
+        let with_exact = pooled_psnr([psnr(&truth, &a, None)?, f64::INFINITY]);
+        let a_alone = psnr(&truth, &a, None)?;
+        assert!(with_exact.is_some_and(|p| (p - (a_alone + 10.0 * 2f64.log10())).abs() < 1e-9));
+        Ok(())
+    }
 }
