@@ -146,12 +146,12 @@ fn polar_plot(results: &[StrategyEval], range: (f64, f64)) -> Result<String> {
     Ok(svg)
 }
 
-/// Mean and worst-arc masked PSNR against the number of views.
+/// Mean, pooled and worst-arc masked PSNR against the number of views.
 fn psnr_plot(results: &[StrategyEval]) -> Result<String> {
     let all: Vec<&Checkpoint> = results.iter().flat_map(|r| &r.checkpoints).collect();
     let lo = all
         .iter()
-        .map(|c| c.worst_arc_psnr.min(c.mean_psnr))
+        .map(|c| c.worst_arc_psnr.min(c.pooled_psnr))
         .fold(f64::INFINITY, f64::min);
     let hi = all
         .iter()
@@ -205,6 +205,18 @@ fn psnr_plot(results: &[StrategyEval]) -> Result<String> {
             chart
                 .draw_series(mean.iter().map(|&p| Circle::new(p, 3, c.filled())))
                 .map_err(svg_error)?;
+            let pooled: Vec<(f64, f64)> = r
+                .checkpoints
+                .iter()
+                .map(|k| (k.views as f64, k.pooled_psnr))
+                .collect();
+            chart
+                .draw_series(DashedLineSeries::new(pooled, 2, 3, c.stroke_width(2)))
+                .map_err(svg_error)?
+                .label(format!("{}: pooled", r.strategy.name()))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 4, y)], c.stroke_width(2))
+                });
             chart
                 .draw_series(DashedLineSeries::new(worst, 5, 4, c.stroke_width(1)))
                 .map_err(svg_error)?
