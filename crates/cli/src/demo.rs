@@ -185,16 +185,13 @@ fn psnr_plot(results: &[StrategyEval]) -> Result<String> {
             .map_err(svg_error)?;
         for r in results {
             let c = colour(r.strategy);
-            let mean: Vec<(f64, f64)> = r
-                .checkpoints
-                .iter()
-                .map(|k| (k.views as f64, k.mean_psnr))
-                .collect();
-            let worst: Vec<(f64, f64)> = r
-                .checkpoints
-                .iter()
-                .map(|k| (k.views as f64, k.worst_arc_psnr))
-                .collect();
+            let series = |f: fn(&Checkpoint) -> f64| -> Vec<(f64, f64)> {
+                r.checkpoints
+                    .iter()
+                    .map(|k| (k.views as f64, f(k)))
+                    .collect()
+            };
+            let mean = series(|k| k.mean_psnr);
             chart
                 .draw_series(LineSeries::new(mean.clone(), c.stroke_width(2)))
                 .map_err(svg_error)?
@@ -205,20 +202,25 @@ fn psnr_plot(results: &[StrategyEval]) -> Result<String> {
             chart
                 .draw_series(mean.iter().map(|&p| Circle::new(p, 3, c.filled())))
                 .map_err(svg_error)?;
-            let pooled: Vec<(f64, f64)> = r
-                .checkpoints
-                .iter()
-                .map(|k| (k.views as f64, k.pooled_psnr))
-                .collect();
             chart
-                .draw_series(DashedLineSeries::new(pooled, 2, 3, c.stroke_width(2)))
+                .draw_series(DashedLineSeries::new(
+                    series(|k| k.pooled_psnr),
+                    2,
+                    3,
+                    c.stroke_width(2),
+                ))
                 .map_err(svg_error)?
                 .label(format!("{}: pooled", r.strategy.name()))
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 4, y)], c.stroke_width(2))
                 });
             chart
-                .draw_series(DashedLineSeries::new(worst, 5, 4, c.stroke_width(1)))
+                .draw_series(DashedLineSeries::new(
+                    series(|k| k.worst_arc_psnr),
+                    5,
+                    4,
+                    c.stroke_width(1),
+                ))
                 .map_err(svg_error)?
                 .label(format!("{}: worst arc", r.strategy.name()))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c));
