@@ -1,6 +1,7 @@
 //! Real data: the Middlebury sparse rings in `AIBR_DATA_DIR`, brought into the turntable
 //! frame by the ring fit of aibr-camera, with silhouettes by thresholding (the README's
-//! recipe). The dino lies below the camera ring, so voxel coloring applies; the temple's box
+//! recipe; on the temple, only the largest region of the thresholded pixels is kept, which
+//! drops lit parts of the gantry). The dino lies below the camera ring, so voxel coloring applies; the temple's box
 //! reaches above it, so voxel coloring must refuse and space carving must reconstruct it.
 //!
 //! Print the figures with
@@ -49,6 +50,7 @@ fn load(
     par: &str,
     box_min: [f64; 3],
     box_max: [f64; 3],
+    silhouettes: &DarkBackground,
 ) -> Result<Dataset, Box<dyn std::error::Error>> {
     let views = read_middlebury_par(dir.join(par))?;
     let poses: Vec<_> = views.iter().map(|v| v.cam_from_world).collect();
@@ -68,9 +70,9 @@ fn load(
         let camera = v
             .camera(size)?
             .with_pose(ring.to_turntable(&v.cam_from_world));
-        // Thresholding also marks a lit part of the gantry beside the temple in a few views;
-        // the object is inside its box, so the silhouette is too.
-        let mut mask = dark_background_mask(&image, &DarkBackground::default());
+        // Thresholding also marks lit parts of the gantry beside the temple; the object is
+        // inside its box, so the silhouette is too.
+        let mut mask = dark_background_mask(&image, silhouettes);
         clip_to_volume(&mut mask, &camera, &volume)?;
         masks.push(mask);
         cameras.push(camera);
@@ -127,6 +129,7 @@ fn dino_by_voxel_coloring() -> TestResult {
         "dinoSR_par.txt",
         [-0.061897, -0.018874, -0.057845],
         [0.010897, 0.068227, 0.015495],
+        &DarkBackground::default(),
     )?;
     let good: Vec<String> = std::fs::read_to_string(dir.join("dinoSR_good_silhouette_images.txt"))?
         .lines()
@@ -166,6 +169,13 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
         "templeSR_par.txt",
         [-0.073568, 0.021728, -0.012445],
         [0.028855, 0.181892, 0.062736],
+        // The gantry stands beside the temple, lit, in several views, and the README's
+        // closing joins parts of it to the temple: only the largest thresholded region is
+        // the temple.
+        &DarkBackground {
+            largest_component: true,
+            ..DarkBackground::default()
+        },
     )?;
     let grid = VoxelGrid::with_resolution(data.volume, 128)?;
     let top = grid.bounds().max.z;
@@ -196,11 +206,12 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
         100.0 * spill
     );
     // No model that respects every silhouette covers more of a view's silhouette than the
-    // visual hull does: where the hull itself falls short, the silhouettes disagree (parts
-    // of the gantry inside the box's projection in some views). The 95% is reached
-    // in 12 of 16 views; in the others carving stays within 4.5 points of the hull (it
-    // loses 1.1-3.8 there, docs/results.md).
+    // visual hull does: where the hull itself falls short, the silhouettes disagree (in
+    // templeSR0002 a part of the gantry that touches the temple even before the closing).
+    // The 95% is reached in 15 of 16 views; in the other carving stays within 4.5
+    // points of the hull (docs/results.md).
     let hull = visual_hull(&grid, &data.views())?;
+    let mut reached = 0;
     for (i, camera) in data.cameras.iter().enumerate() {
         let carved = silhouette_agreement(&out.model.depth_map(camera), &data.masks[i]);
         let bound = silhouette_agreement(&hull.depth_map(camera), &data.masks[i]);
@@ -218,7 +229,9 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
             carved.coverage,
             bound.coverage
         );
+        reached += usize::from(carved.coverage >= 0.95);
     }
+    assert!(reached >= 15, "95% coverage in {reached} of 16 views");
     assert!(mean >= 0.95, "mean coverage {mean}");
     assert!(worst >= 0.90, "coverage {worst}");
     assert!(spill <= 0.10, "spill {spill}");
