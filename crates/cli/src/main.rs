@@ -40,7 +40,8 @@ enum Command {
     Render(RenderArgs),
     /// Active against uniform capture, measured against ground truth: at each checkpoint,
     /// every uncaptured pan angle on a fine grid is rendered and compared with the truth
-    /// inside the object mask (masked PSNR and SSIM, mean and worst arc).
+    /// inside the object mask (masked PSNR and SSIM, mean and worst arc; and the PSNR of the
+    /// views' pooled squared error, which weighs the worst renders most).
     Eval(EvalArgs),
     /// Drive a PTU-46 pan-tilt unit on a serial port, or emulate one on a pseudo-terminal.
     Ptu(PtuArgs),
