@@ -49,12 +49,21 @@ pub fn psnr(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
     if n == 0 {
         return Err(Error::EmptyMask);
     }
-    let mse = sum / n as f64;
-    Ok(if mse == 0.0 {
+    Ok(psnr_of_mse(sum / n as f64))
+}
+
+/// The PSNR (dB, peak 255) of a mean squared error; infinity for none.
+fn psnr_of_mse(mse: f64) -> f64 {
+    if mse == 0.0 {
         f64::INFINITY
     } else {
         10.0 * (255.0 * 255.0 / mse).log10()
-    })
+    }
+}
+
+/// The mean squared error of a PSNR ([`psnr_of_mse`] inverted); none for infinity.
+fn mse_of_psnr(psnr: f64) -> f64 {
+    255.0 * 255.0 * 10f64.powf(-psnr / 10.0)
 }
 
 /// The PSNR (dB, peak 255) of the mean of several images' squared errors, given each
@@ -76,11 +85,10 @@ pub fn psnr(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
 /// assert_eq!(pooled_psnr(std::iter::empty()), None);
 /// ```
 pub fn pooled_psnr(psnrs: impl IntoIterator<Item = f64>) -> Option<f64> {
-    // In units of the peak's square: 10^(-psnr / 10) is the image's mean squared error.
     let (sum, n) = psnrs.into_iter().fold((0.0f64, 0usize), |(sum, n), p| {
-        (sum + 10f64.powf(-p / 10.0), n + 1)
+        (sum + mse_of_psnr(p), n + 1)
     });
-    (n > 0).then(|| -10.0 * (sum / n as f64).log10())
+    (n > 0).then(|| psnr_of_mse(sum / n as f64))
 }
 
 /// The pixel rectangle `[x0, x1) x [y0, y1)` over which SSIM is averaged.
