@@ -133,11 +133,11 @@ pub fn largest_component(mask: &GrayImage) -> GrayImage {
             (best, best_size) = (next, size);
         }
     }
-    let kept = label
-        .iter()
-        .map(|&l| if l != 0 && l == best { 255 } else { 0 })
-        .collect();
-    GrayImage::from_raw(mask.width(), mask.height(), kept).unwrap_or_else(|| mask.clone())
+    let mut kept = GrayImage::new(mask.width(), mask.height());
+    for (p, &l) in kept.iter_mut().zip(&label) {
+        *p = if l != 0 && l == best { 255 } else { 0 };
+    }
+    kept
 }
 
 /// Square dilation (`max`) or erosion (`min`) of radius `r`, separable. Outside the image

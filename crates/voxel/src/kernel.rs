@@ -405,18 +405,26 @@ pub(crate) struct PixelBits {
 }
 
 impl PixelBits {
+    /// The bits of a `width` x `height` image, none set.
+    pub(crate) fn none_set(width: usize, height: usize) -> Self {
+        let words = width.div_ceil(64);
+        PixelBits {
+            words,
+            bits: vec![0; words * height],
+        }
+    }
+
     /// The bits of a `width` x `height` image, set where `set(pixel index)` says.
     pub(crate) fn from_fn(width: usize, height: usize, set: impl Fn(usize) -> bool) -> Self {
-        let words = width.div_ceil(64);
-        let mut bits = vec![0u64; words * height];
+        let mut out = Self::none_set(width, height);
         for y in 0..height {
             for x in 0..width {
                 if set(y * width + x) {
-                    bits[y * words + x / 64] |= 1 << (x % 64);
+                    out.bits[y * out.words + x / 64] |= 1 << (x % 64);
                 }
             }
         }
-        PixelBits { words, bits }
+        out
     }
 
     #[inline]
@@ -528,7 +536,7 @@ impl ViewBits {
             .map(|m| PixelBits::from_fn(w, h, |i| m.get(i).is_some_and(|&b| b == 0)));
         let resolved = background
             .clone()
-            .unwrap_or_else(|| PixelBits::from_fn(w, h, |_| false));
+            .unwrap_or_else(|| PixelBits::none_set(w, h));
         ViewBits {
             background,
             resolved,

@@ -1,8 +1,9 @@
 //! Real data: the Middlebury sparse rings in `AIBR_DATA_DIR`, brought into the turntable
 //! frame by the ring fit of aibr-camera, with silhouettes by thresholding (the README's
 //! recipe; on the temple, only the largest region of the thresholded pixels is kept, which
-//! drops lit parts of the gantry). The dino lies below the camera ring, so voxel coloring applies; the temple's box
-//! reaches above it, so voxel coloring must refuse and space carving must reconstruct it.
+//! drops lit parts of the gantry). The dino lies below the camera ring, so voxel coloring
+//! applies; the temple's box reaches above it, so voxel coloring must refuse and space
+//! carving must reconstruct it.
 //!
 //! Print the figures with
 //! `cargo test --release -p aibr-voxel --test middlebury -- --nocapture`.
