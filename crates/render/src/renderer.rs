@@ -158,6 +158,31 @@ impl RenderedView {
             n[0] as f64 / total,
         )
     }
+
+    /// The coverage as an image to look at: white where the model's surface was met
+    /// (`Geometry`), mid grey where the focal surface stood in (`Fallback`), black where no
+    /// source sees the point (`Nothing`).
+    ///
+    /// ```
+    /// use aibr_camera::ImageSize;
+    /// use aibr_render::RenderedView;
+    ///
+    /// let mut view = RenderedView::new(ImageSize::new(3, 1));
+    /// view.coverage.as_mut().copy_from_slice(&[2, 1, 0]);
+    /// assert_eq!(view.coverage_image().as_raw(), &[255, 128, 0]);
+    /// ```
+    pub fn coverage_image(&self) -> GrayImage {
+        let (geometry, fallback) = (Coverage::Geometry as u8, Coverage::Fallback as u8);
+        let mut img = self.coverage.clone();
+        for p in img.iter_mut() {
+            *p = match *p {
+                c if c == geometry => 255,
+                c if c == fallback => 128,
+                _ => 0,
+            };
+        }
+        img
+    }
 }
 
 struct Source {
