@@ -36,7 +36,7 @@ enum Command {
     Capture(CaptureArgs),
     /// Reconstruct a session's voxel model and write it as model.ply into the session.
     Reconstruct(ReconstructArgs),
-    /// Render a novel view of a session at a pan angle.
+    /// Render novel views of a session: one pan angle, or a sweep of them into a folder.
     Render(RenderArgs),
     /// Active against uniform capture, measured against ground truth: at each checkpoint,
     /// every uncaptured pan angle on a fine grid is rendered and compared with the truth
@@ -284,17 +284,90 @@ struct RenderArgs {
     /// The session folder.
     session: PathBuf,
     /// The pan angle to render, degrees (inside the turntable's range).
-    #[arg(long, allow_hyphen_values = true)]
-    pan: f64,
-    /// The output image (PNG).
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        required_unless_present = "sweep",
+        conflicts_with = "sweep"
+    )]
+    pan: Option<f64>,
+    /// Render a sweep of pan angles instead, FROM:TO:STEP in degrees (TO included when the
+    /// steps land on it; STEP negative to turn the other way), into the folder -o names as
+    /// frame_0000.png, frame_0001.png, ... (a turntable animation of novel views; `ffmpeg -i
+    /// DIR/frame_%04d.png` makes a video of them). The model and the renderer are built once.
+    /// Every angle must lie inside the turntable's range, and no frame may exist already.
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_sweep)]
+    sweep: Option<Sweep>,
+    /// The output image (PNG); with --sweep, the folder for the frames (made if missing).
     #[arg(short, long)]
     output: PathBuf,
-    /// Also write the depth as OpenEXR.
-    #[arg(long)]
+    /// Also write the depth as OpenEXR (one view only).
+    #[arg(long, conflicts_with = "sweep")]
     depth: Option<PathBuf>,
+    /// Also write how each pixel was made (PNG; one view only): white where the model's
+    /// surface was met, grey where the focal surface stood in, black where no capture sees
+    /// the point.
+    #[arg(long, conflicts_with = "sweep")]
+    coverage: Option<PathBuf>,
     /// Voxels along the longest edge of the model used.
     #[arg(long, default_value_t = 128)]
     grid: usize,
+}
+
+/// Pan angles from `from` to `to` (included when the steps land on it) by `step`, degrees.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sweep {
+    from: f64,
+    to: f64,
+    step: f64,
+}
+
+/// The most frames a sweep may have.
+const MAX_SWEEP_FRAMES: usize = 100_000;
+
+impl Sweep {
+    /// The number of angles.
+    fn len(&self) -> usize {
+        // A hair of slack so that 0:10:0.1 ends at 10 despite rounding.
+        ((self.to - self.from) / self.step + 1e-9).floor() as usize + 1
+    }
+
+    fn angles(&self) -> impl Iterator<Item = f64> + '_ {
+        (0..self.len()).map(|i| self.from + i as f64 * self.step)
+    }
+}
+
+fn parse_sweep(text: &str) -> std::result::Result<Sweep, String> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let [from, to, step] = parts.as_slice() else {
+        return Err(format!(
+            "{text:?}: expected FROM:TO:STEP in degrees, such as 20:160:1"
+        ));
+    };
+    let number = |name: &str, v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{text:?}: {name} {v:?} is not a number of degrees"))
+    };
+    let sweep = Sweep {
+        from: number("FROM", from)?,
+        to: number("TO", to)?,
+        step: number("STEP", step)?,
+    };
+    if sweep.step == 0.0 || (sweep.to - sweep.from) * sweep.step < 0.0 {
+        return Err(format!(
+            "{text:?}: STEP must be non-zero and turn from FROM towards TO"
+        ));
+    }
+    let frames = (sweep.to - sweep.from) / sweep.step + 1.0;
+    if frames > MAX_SWEEP_FRAMES as f64 {
+        return Err(format!(
+            "{text:?}: {frames:.0} frames, more than {MAX_SWEEP_FRAMES}"
+        ));
+    }
+    Ok(sweep)
 }
 
 #[derive(Subcommand)]
@@ -960,20 +1033,76 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
 
 fn render(a: RenderArgs) -> Result<()> {
     let session = Session::open(&a.session)?;
+    // Every angle is checked, and no frame may be overwritten, before the (slow) model.
+    let (range, _) = session.turntable()?;
+    let (pans, frames) = match (a.pan, a.sweep) {
+        (_, Some(sweep)) => {
+            let pans = sweep
+                .angles()
+                .map(|p| range.check(Angle::from_degrees(p)))
+                .collect::<std::result::Result<Vec<_>, _>>()
+                .context("--sweep")?;
+            let frames: Vec<PathBuf> = (0..pans.len())
+                .map(|i| a.output.join(format!("frame_{i:04}.png")))
+                .collect();
+            if let Some(f) = frames.iter().find(|f| f.exists()) {
+                bail!(
+                    "{} exists: a sweep does not overwrite frames; remove them or choose another folder",
+                    f.display()
+                );
+            }
+            (pans, Some(frames))
+        }
+        (Some(pan), None) => (vec![range.check(Angle::from_degrees(pan))?], None),
+        (None, None) => bail!("give --pan or --sweep"),
+    };
     // Decoded once, for both the model and the renderer.
     let views = session.load_views()?;
     let (rec, _) = aibr::reconstruct_loaded(&session, &views, a.grid, Criterion::angular())?;
-    let view = aibr::render_loaded(&session, &views, &rec.model, Angle::from_degrees(a.pan))?;
-    png(&a.output, &view.rgb)?;
-    if let Some(d) = &a.depth {
-        exr(d, &view.depth)?;
+    let renderer = aibr::renderer_for(&views, &rec.model)?;
+    let calibration = session.calibration()?;
+    let mut view = aibr::render::RenderedView::new(calibration.camera.size);
+    let Some(frames) = frames else {
+        renderer.render_into(&calibration.camera_at(pans[0]), &mut view)?;
+        png(&a.output, &view.rgb)?;
+        if let Some(d) = &a.depth {
+            exr(d, &view.depth)?;
+        }
+        if let Some(c) = &a.coverage {
+            png(c, &view.coverage_image())?;
+        }
+        let (g, f, _) = view.coverage_shares();
+        println!(
+            "{} ({:.1}% geometry, {:.1}% focal surface)",
+            a.output.display(),
+            100.0 * g,
+            100.0 * f
+        );
+        return Ok(());
+    };
+    std::fs::create_dir_all(&a.output)
+        .with_context(|| format!("creating {}", a.output.display()))?;
+    let bar = ProgressBar::new(pans.len() as u64);
+    bar.set_style(ProgressStyle::with_template(
+        "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} frames {msg}",
+    )?);
+    let mut times = Vec::with_capacity(pans.len());
+    for (pan, frame) in pans.iter().zip(&frames) {
+        let start = std::time::Instant::now();
+        renderer.render_into(&calibration.camera_at(*pan), &mut view)?;
+        times.push(start.elapsed().as_secs_f64());
+        png(frame, &view.rgb)?;
+        bar.set_message(format!("{:.2} deg", pan.degrees()));
+        bar.inc(1);
     }
-    let (g, f, _) = view.coverage_shares();
+    bar.finish_and_clear();
+    times.sort_by(f64::total_cmp);
+    let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
     println!(
-        "{} ({:.1}% geometry, {:.1}% focal surface)",
+        "{} frames in {} ({:.1} ms a frame to render, median)",
+        frames.len(),
         a.output.display(),
-        100.0 * g,
-        100.0 * f
+        1e3 * median
     );
     Ok(())
 }
@@ -1000,5 +1129,34 @@ fn scene(c: SceneCommand) -> Result<()> {
             println!("{}", output.display());
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sweeps_parse_and_list_their_angles() {
+        let angles = |text: &str| parse_sweep(text).map(|s| s.angles().collect::<Vec<_>>());
+        assert_eq!(angles("20:30:5"), Ok(vec![20.0, 25.0, 30.0]));
+        // TO is included only when a step lands on it, and rounding does not lose it.
+        assert_eq!(angles("20:29:5"), Ok(vec![20.0, 25.0]));
+        assert_eq!(angles("0:1:0.1").map(|a| a.len()), Ok(11));
+        assert_eq!(angles("-10:-20:-5"), Ok(vec![-10.0, -15.0, -20.0]));
+        assert_eq!(angles("7:7:1"), Ok(vec![7.0]));
+    }
+
+    #[test]
+    fn bad_sweeps_name_what_is_wrong() {
+        let error = |text: &str| parse_sweep(text).err().unwrap_or_default();
+        assert!(error("20:30").contains("expected FROM:TO:STEP"));
+        assert!(error("20:30:5:1").contains("expected FROM:TO:STEP"));
+        assert!(error("a:30:5").contains("FROM \"a\""));
+        assert!(error("0:inf:5").contains("TO \"inf\""));
+        assert!(error("0:NaN:5").contains("TO \"NaN\""));
+        assert!(error("0:30:0").contains("STEP must be non-zero"));
+        assert!(error("0:30:-1").contains("turn from FROM towards TO"));
+        assert!(error("0:360:0.001").contains("more than 100000"));
     }
 }

@@ -180,6 +180,7 @@ fn reconstruct_and_render_a_session() -> TestResult {
 
     let png = dir.join("novel.png");
     let exr = dir.join("novel.exr");
+    let coverage = dir.join("coverage.png");
     let out = aibr()
         .arg("render")
         .arg(&dir)
@@ -187,11 +188,70 @@ fn reconstruct_and_render_a_session() -> TestResult {
         .arg(&png)
         .arg("--depth")
         .arg(&exr)
+        .arg("--coverage")
+        .arg(&coverage)
         .output()?;
     assert_success(&out);
-    let rendered = image::open(&png)?;
+    let rendered = image::open(&png)?.to_rgb8();
     assert_eq!((rendered.width(), rendered.height()), (640, 480));
     assert!(std::fs::metadata(&exr)?.len() > 1000);
+    // The coverage has the three levels only, and the object (its pixels differ from the
+    // backdrop's median) is mostly geometry.
+    let coverage = image::open(&coverage)?.to_luma8();
+    assert!(coverage.pixels().all(|p| [0, 128, 255].contains(&p.0[0])));
+    let geometry = coverage.pixels().filter(|p| p.0[0] == 255).count();
+    assert!(geometry > 2_000, "{geometry} geometry pixels");
+    assert!(coverage.pixels().any(|p| p.0[0] == 128));
+
+    // A sweep renders every angle into a folder, the one at -33.5 as the single render did.
+    let frames = dir.join("frames");
+    let out = aibr()
+        .arg("render")
+        .arg(&dir)
+        .args(["--sweep", "-35:-32:0.5", "--grid", "32", "-o"])
+        .arg(&frames)
+        .output()?;
+    assert_success(&out);
+    let mut names: Vec<String> = std::fs::read_dir(&frames)?
+        .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
+        .collect::<Result<_, _>>()?;
+    names.sort();
+    let expected: Vec<String> = (0..7).map(|i| format!("frame_{i:04}.png")).collect();
+    assert_eq!(names, expected);
+    let third = image::open(frames.join("frame_0003.png"))?.to_rgb8();
+    assert_eq!(third, rendered);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("7 frames"));
+    // Run again, it refuses to overwrite the frames, and names the first.
+    let before = std::fs::read(frames.join("frame_0000.png"))?;
+    let out = aibr()
+        .arg("render")
+        .arg(&dir)
+        .args(["--sweep", "-35:-32:0.5", "--grid", "32", "-o"])
+        .arg(&frames)
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("frame_0000.png exists"));
+    assert_eq!(std::fs::read(frames.join("frame_0000.png"))?, before);
+    // A sweep that leaves the range is refused before anything is written.
+    let far = dir.join("far");
+    let out = aibr()
+        .arg("render")
+        .arg(&dir)
+        .args(["--sweep", "150:200:10", "-o"])
+        .arg(&far)
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("outside the range"));
+    assert!(!far.exists());
+    // So is a sweep that does not parse, naming the part at fault.
+    let out = aibr()
+        .arg("render")
+        .arg(&dir)
+        .args(["--sweep", "10:0:5", "-o"])
+        .arg(&far)
+        .output()?;
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("STEP must be non-zero"));
 
     // An angle outside the turntable's range is refused and writes nothing.
     let bad = dir.join("bad.png");
