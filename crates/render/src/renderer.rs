@@ -855,7 +855,9 @@ impl<'a> Renderer<'a> {
 
     /// The blend proper: the `k` sources of least penalty among `found` (source, `u`, `v`),
     /// with weights `(1 - p / p_(k+1)) / p`, sampled at their `(u, v)`. `found` is not empty.
-    #[inline]
+    // Always inlined, like `bilinear`: left out of line (as the compiler chose), the frame
+    // took 8-10% longer, with the same output (session 12, `docs/render.md`).
+    #[inline(always)]
     fn mix(&self, found: &[(usize, f32, f32)], penalty: &[f32]) -> [u8; 3] {
         let n = found.len();
         // The sources in penalty order; ties keep the candidates' order.
@@ -990,7 +992,7 @@ impl FocalRow {
 
 /// Bilinear sample at `(u, v)` (pixel centres at integers, `0 <= u <= width - 1`,
 /// `0 <= v <= height - 1`) of an image at least 2 pixels wide and high.
-#[inline]
+#[inline(always)]
 fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 3] {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let raw = img.as_raw();
