@@ -292,9 +292,10 @@ struct RenderArgs {
     )]
     pan: Option<f64>,
     /// Render a sweep of pan angles instead, FROM:TO:STEP in degrees (TO included when the
-    /// steps land on it; STEP negative to turn the other way), into the folder -o names as
-    /// frame_0000.png, frame_0001.png, ... (a turntable animation of novel views; `ffmpeg -i
-    /// DIR/frame_%04d.png` makes a video of them). The model and the renderer are built once.
+    /// steps land on it; STEP negative to turn the other way), into the folder -o names:
+    /// frame_0000.png, frame_0001.png, ..., frame i at FROM + i STEP (a turntable animation of
+    /// novel views; `ffmpeg -i DIR/frame_%04d.png` makes a video of them). The model and the
+    /// renderer are built once.
     /// Every angle must lie inside the turntable's range, and no frame may exist already.
     #[arg(long, allow_hyphen_values = true, value_parser = parse_sweep)]
     sweep: Option<Sweep>,
@@ -341,7 +342,7 @@ fn parse_sweep(text: &str) -> std::result::Result<Sweep, String> {
     let parts: Vec<&str> = text.split(':').collect();
     let [from, to, step] = parts.as_slice() else {
         return Err(format!(
-            "{text:?}: expected FROM:TO:STEP in degrees, such as 20:160:1"
+            "{text:?}: expected FROM:TO:STEP in degrees, such as 20:150:1"
         ));
     };
     let number = |name: &str, v: &str| {

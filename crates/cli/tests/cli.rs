@@ -195,8 +195,8 @@ fn reconstruct_and_render_a_session() -> TestResult {
     let rendered = image::open(&png)?.to_rgb8();
     assert_eq!((rendered.width(), rendered.height()), (640, 480));
     assert!(std::fs::metadata(&exr)?.len() > 1000);
-    // The coverage has the three levels only, and the object (its pixels differ from the
-    // backdrop's median) is mostly geometry.
+    // The coverage has the three levels only: the model is met on the object, and the
+    // backdrop is rendered on the focal surface.
     let coverage = image::open(&coverage)?.to_luma8();
     assert!(coverage.pixels().all(|p| [0, 128, 255].contains(&p.0[0])));
     let geometry = coverage.pixels().filter(|p| p.0[0] == 255).count();
