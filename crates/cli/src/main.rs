@@ -1136,6 +1136,38 @@ fn scene(c: SceneCommand) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// A sweep written out from its first angle, step and count parses back to that many
+        /// angles, from the first to the last in equal steps.
+        #[test]
+        fn sweeps_round_trip(
+            from in -180.0f64..180.0,
+            step in prop_oneof![0.01f64..50.0, -50.0f64..-0.01],
+            n in 1usize..2000,
+        ) {
+            let to = from + (n - 1) as f64 * step;
+            let sweep = parse_sweep(&format!("{from}:{to}:{step}"));
+            prop_assert!(sweep.is_ok(), "{sweep:?}");
+            let angles: Vec<f64> = sweep.iter().flat_map(|s| s.angles()).collect();
+            prop_assert_eq!(angles.len(), n);
+            prop_assert_eq!(angles[0], from);
+            prop_assert!((angles[n - 1] - to).abs() <= 1e-9 * (1.0 + to.abs()));
+        }
+
+        /// Any text gives a sweep or an error that quotes it, never a panic.
+        #[test]
+        fn any_text_parses_or_is_refused(text in "[-0-9.:einfNa ]{0,24}") {
+            match parse_sweep(&text) {
+                Ok(sweep) => prop_assert!((1..=MAX_SWEEP_FRAMES).contains(&sweep.len())),
+                Err(e) => {
+                    let quoted = format!("{text:?}");
+                    prop_assert!(e.starts_with(&quoted), "{} does not quote {}", e, quoted);
+                }
+            }
+        }
+    }
 
     #[test]
     fn sweeps_parse_and_list_their_angles() {
