@@ -178,6 +178,21 @@ fn reconstruct_and_render_a_session() -> TestResult {
     let ply = std::fs::read(dir.join("model.ply"))?;
     assert!(ply.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
 
+    // `aibr render` of the session with `args`, writing to `to`; and whether a run was
+    // refused for `reason`.
+    let render = |args: &[&str], to: &Path| {
+        aibr()
+            .arg("render")
+            .arg(&dir)
+            .args(args)
+            .arg("-o")
+            .arg(to)
+            .output()
+    };
+    let refused = |out: &std::process::Output, reason: &str| {
+        !out.status.success() && String::from_utf8_lossy(&out.stderr).contains(reason)
+    };
+
     let png = dir.join("novel.png");
     let exr = dir.join("novel.exr");
     let coverage = dir.join("coverage.png");
@@ -205,12 +220,8 @@ fn reconstruct_and_render_a_session() -> TestResult {
 
     // A sweep renders every angle into a folder, the one at -33.5 as the single render did.
     let frames = dir.join("frames");
-    let out = aibr()
-        .arg("render")
-        .arg(&dir)
-        .args(["--sweep", "-35:-32:0.5", "--grid", "32", "-o"])
-        .arg(&frames)
-        .output()?;
+    let sweep = ["--sweep", "-35:-32:0.5", "--grid", "32"];
+    let out = render(&sweep, &frames)?;
     assert_success(&out);
     let mut names: Vec<String> = std::fs::read_dir(&frames)?
         .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
@@ -223,46 +234,27 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert!(String::from_utf8_lossy(&out.stdout).contains("7 frames"));
     // Run again, it refuses to overwrite the frames, and names the first.
     let before = std::fs::read(frames.join("frame_0000.png"))?;
-    let out = aibr()
-        .arg("render")
-        .arg(&dir)
-        .args(["--sweep", "-35:-32:0.5", "--grid", "32", "-o"])
-        .arg(&frames)
-        .output()?;
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("frame_0000.png exists"));
+    assert!(refused(&render(&sweep, &frames)?, "frame_0000.png exists"));
     assert_eq!(std::fs::read(frames.join("frame_0000.png"))?, before);
-    // A sweep that leaves the range is refused before anything is written.
+    // A sweep that leaves the range is refused before anything is written; so is one that
+    // does not parse, naming the part at fault.
     let far = dir.join("far");
-    let out = aibr()
-        .arg("render")
-        .arg(&dir)
-        .args(["--sweep", "150:200:10", "-o"])
-        .arg(&far)
-        .output()?;
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("outside the range"));
+    assert!(refused(
+        &render(&["--sweep", "150:200:10"], &far)?,
+        "outside the range"
+    ));
+    assert!(refused(
+        &render(&["--sweep", "10:0:5"], &far)?,
+        "STEP must be non-zero"
+    ));
     assert!(!far.exists());
-    // So is a sweep that does not parse, naming the part at fault.
-    let out = aibr()
-        .arg("render")
-        .arg(&dir)
-        .args(["--sweep", "10:0:5", "-o"])
-        .arg(&far)
-        .output()?;
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("STEP must be non-zero"));
 
     // An angle outside the turntable's range is refused and writes nothing.
     let bad = dir.join("bad.png");
-    let out = aibr()
-        .arg("render")
-        .arg(&dir)
-        .args(["--pan", "175", "-o"])
-        .arg(&bad)
-        .output()?;
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("outside the range"));
+    assert!(refused(
+        &render(&["--pan", "175"], &bad)?,
+        "outside the range"
+    ));
     assert!(!bad.exists());
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
