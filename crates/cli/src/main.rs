@@ -330,7 +330,7 @@ impl Sweep {
     /// The number of angles.
     fn len(&self) -> usize {
         // A hair of slack so that 0:10:0.1 ends at 10 despite rounding.
-        ((self.to - self.from) / self.step + 1e-9).floor() as usize + 1
+        (((self.to - self.from) / self.step + 1e-9).floor() as usize).saturating_add(1)
     }
 
     fn angles(&self) -> impl Iterator<Item = f64> + '_ {
@@ -362,10 +362,11 @@ fn parse_sweep(text: &str) -> std::result::Result<Sweep, String> {
             "{text:?}: STEP must be non-zero and turn from FROM towards TO"
         ));
     }
-    let frames = (sweep.to - sweep.from) / sweep.step + 1.0;
-    if frames > MAX_SWEEP_FRAMES as f64 {
+    // `len` saturates, so a count too large for usize is refused too.
+    let frames = sweep.len();
+    if frames > MAX_SWEEP_FRAMES {
         return Err(format!(
-            "{text:?}: {frames:.0} frames, more than {MAX_SWEEP_FRAMES}"
+            "{text:?}: {frames} frames, more than {MAX_SWEEP_FRAMES}"
         ));
     }
     Ok(sweep)
@@ -1034,27 +1035,31 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
 
 fn render(a: RenderArgs) -> Result<()> {
     let session = Session::open(&a.session)?;
-    // Every angle is checked, and no frame may be overwritten, before the (slow) model.
+    // Every angle is checked, and no frame may be overwritten, before the (slow) model. Each
+    // target is a pan angle and the PNG it goes to.
     let (range, _) = session.turntable()?;
-    let (pans, frames) = match (a.pan, a.sweep) {
+    let targets: Vec<(Angle, PathBuf)> = match (a.pan, a.sweep) {
         (_, Some(sweep)) => {
-            let pans = sweep
+            let targets = sweep
                 .angles()
-                .map(|p| range.check(Angle::from_degrees(p)))
-                .collect::<std::result::Result<Vec<_>, _>>()
+                .enumerate()
+                .map(|(i, p)| {
+                    let frame = a.output.join(format!("frame_{i:04}.png"));
+                    Ok((range.check(Angle::from_degrees(p))?, frame))
+                })
+                .collect::<Result<Vec<_>>>()
                 .context("--sweep")?;
-            let frames: Vec<PathBuf> = (0..pans.len())
-                .map(|i| a.output.join(format!("frame_{i:04}.png")))
-                .collect();
-            if let Some(f) = frames.iter().find(|f| f.exists()) {
+            if let Some((_, f)) = targets.iter().find(|(_, f)| f.exists()) {
                 bail!(
                     "{} exists: a sweep does not overwrite frames; remove them or choose another folder",
                     f.display()
                 );
             }
-            (pans, Some(frames))
+            std::fs::create_dir_all(&a.output)
+                .with_context(|| format!("creating {}", a.output.display()))?;
+            targets
         }
-        (Some(pan), None) => (vec![range.check(Angle::from_degrees(pan))?], None),
+        (Some(pan), None) => vec![(range.check(Angle::from_degrees(pan))?, a.output.clone())],
         (None, None) => bail!("give --pan or --sweep"),
     };
     // Decoded once, for both the model and the renderer.
@@ -1063,47 +1068,44 @@ fn render(a: RenderArgs) -> Result<()> {
     let renderer = aibr::renderer_for(&views, &rec.model)?;
     let calibration = session.calibration()?;
     let mut view = aibr::render::RenderedView::new(calibration.camera.size);
-    let Some(frames) = frames else {
-        renderer.render_into(&calibration.camera_at(pans[0]), &mut view)?;
-        png(&a.output, &view.rgb)?;
-        if let Some(d) = &a.depth {
-            exr(d, &view.depth)?;
-        }
-        if let Some(c) = &a.coverage {
-            png(c, &view.coverage_image())?;
-        }
-        let (g, f, _) = view.coverage_shares();
-        println!(
-            "{} ({:.1}% geometry, {:.1}% focal surface)",
-            a.output.display(),
-            100.0 * g,
-            100.0 * f
-        );
-        return Ok(());
-    };
-    std::fs::create_dir_all(&a.output)
-        .with_context(|| format!("creating {}", a.output.display()))?;
-    let bar = ProgressBar::new(pans.len() as u64);
+    let bar = ProgressBar::new(targets.len() as u64);
     bar.set_style(ProgressStyle::with_template(
         "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} frames {msg}",
     )?);
-    let mut times = Vec::with_capacity(pans.len());
-    for (pan, frame) in pans.iter().zip(&frames) {
+    let mut times = Vec::with_capacity(targets.len());
+    for (pan, file) in &targets {
         let start = std::time::Instant::now();
         renderer.render_into(&calibration.camera_at(*pan), &mut view)?;
         times.push(start.elapsed().as_secs_f64());
-        png(frame, &view.rgb)?;
+        png(file, &view.rgb)?;
         bar.set_message(format!("{:.2} deg", pan.degrees()));
         bar.inc(1);
     }
     bar.finish_and_clear();
-    times.sort_by(f64::total_cmp);
-    let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
+    if a.sweep.is_some() {
+        times.sort_by(f64::total_cmp);
+        let median = times.get(times.len() / 2).copied().unwrap_or(0.0);
+        println!(
+            "{} frames in {} ({:.1} ms a frame to render, median)",
+            targets.len(),
+            a.output.display(),
+            1e3 * median
+        );
+        return Ok(());
+    }
+    // One view: its extra outputs, from the buffers of its render.
+    if let Some(d) = &a.depth {
+        exr(d, &view.depth)?;
+    }
+    if let Some(c) = &a.coverage {
+        png(c, &view.coverage_image())?;
+    }
+    let (g, f, _) = view.coverage_shares();
     println!(
-        "{} frames in {} ({:.1} ms a frame to render, median)",
-        frames.len(),
+        "{} ({:.1}% geometry, {:.1}% focal surface)",
         a.output.display(),
-        1e3 * median
+        100.0 * g,
+        100.0 * f
     );
     Ok(())
 }
@@ -1191,5 +1193,6 @@ mod tests {
         assert!(error("0:30:0").contains("STEP must be non-zero"));
         assert!(error("0:30:-1").contains("turn from FROM towards TO"));
         assert!(error("0:360:0.001").contains("more than 100000"));
+        assert!(error("0:1e300:1").contains("more than 100000"));
     }
 }
