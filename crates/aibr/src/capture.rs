@@ -331,10 +331,20 @@ pub fn render_loaded(
     Ok(renderer_for(views, model)?.render(&calibration.camera_at(pan))?)
 }
 
-/// A renderer over loaded views and their model, for rendering several novel views.
+/// A renderer over loaded views and their model, for rendering several novel views, with the
+/// default [`RenderParams`].
 pub fn renderer_for<'m>(
     views: &[LoadedView],
     model: &'m aibr_voxel::VoxelModel,
+) -> Result<Renderer<'m>> {
+    renderer_with(views, model, RenderParams::default())
+}
+
+/// [`renderer_for`] with other [`RenderParams`] (for example `refine: None`, faster).
+pub fn renderer_with<'m>(
+    views: &[LoadedView],
+    model: &'m aibr_voxel::VoxelModel,
+    params: RenderParams,
 ) -> Result<Renderer<'m>> {
     let sources = views
         .iter()
@@ -343,7 +353,7 @@ pub fn renderer_for<'m>(
             image: v.image.clone(),
         })
         .collect();
-    Ok(Renderer::new(model, sources, RenderParams::default())?)
+    Ok(Renderer::new(model, sources, params)?)
 }
 
 /// Runs the capture loop on `rig` into `session` (which may already hold views: the loop

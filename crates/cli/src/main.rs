@@ -313,6 +313,11 @@ struct RenderArgs {
     /// Voxels along the longest edge of the model used.
     #[arg(long, default_value_t = 128)]
     grid: usize,
+    /// Render at the model's surface, without the depth refinement: faster (about a quarter
+    /// less time a frame), the object's texture a little less sharp. For quick looks and long
+    /// sweeps.
+    #[arg(long)]
+    no_refine: bool,
 }
 
 /// Pan angles from `from` to `to` (included when the steps land on it) by `step`, degrees.
@@ -1065,7 +1070,15 @@ fn render(a: RenderArgs) -> Result<()> {
     // Decoded once, for both the model and the renderer.
     let views = session.load_views()?;
     let (rec, _) = aibr::reconstruct_loaded(&session, &views, a.grid, Criterion::angular())?;
-    let renderer = aibr::renderer_for(&views, &rec.model)?;
+    let params = aibr::render::RenderParams {
+        refine: if a.no_refine {
+            None
+        } else {
+            aibr::render::RenderParams::default().refine
+        },
+        ..aibr::render::RenderParams::default()
+    };
+    let renderer = aibr::renderer_with(&views, &rec.model, params)?;
     let calibration = session.calibration()?;
     let mut view = aibr::render::RenderedView::new(calibration.camera.size);
     let bar = ProgressBar::new(targets.len() as u64);

@@ -218,6 +218,27 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert!(geometry > 2_000, "{geometry} geometry pixels");
     assert!(coverage.pixels().any(|p| p.0[0] == 128));
 
+    // Without the refinement only the pixels on the model's surface change: the backdrop,
+    // rendered on the focal surface, is the same.
+    let plain = dir.join("plain.png");
+    assert_success(&render(
+        &["--pan", "-33.5", "--grid", "32", "--no-refine"],
+        &plain,
+    )?);
+    let plain = image::open(&plain)?.to_rgb8();
+    let mut changed = 0;
+    for ((p, r), c) in plain.pixels().zip(rendered.pixels()).zip(coverage.pixels()) {
+        if c.0[0] == 255 {
+            changed += usize::from(p != r);
+        } else {
+            assert_eq!(p, r);
+        }
+    }
+    assert!(
+        changed > geometry / 2,
+        "{changed} of {geometry} refined pixels changed"
+    );
+
     // A sweep renders every angle into a folder, the one at -33.5 as the single render did.
     let frames = dir.join("frames");
     let sweep = ["--sweep", "-35:-32:0.5", "--grid", "32"];
