@@ -1070,14 +1070,10 @@ fn render(a: RenderArgs) -> Result<()> {
     // Decoded once, for both the model and the renderer.
     let views = session.load_views()?;
     let (rec, _) = aibr::reconstruct_loaded(&session, &views, a.grid, Criterion::angular())?;
-    let params = aibr::render::RenderParams {
-        refine: if a.no_refine {
-            None
-        } else {
-            aibr::render::RenderParams::default().refine
-        },
-        ..aibr::render::RenderParams::default()
-    };
+    let mut params = aibr::render::RenderParams::default();
+    if a.no_refine {
+        params.refine = None;
+    }
     let renderer = aibr::renderer_with(&views, &rec.model, params)?;
     let calibration = session.calibration()?;
     let mut view = aibr::render::RenderedView::new(calibration.camera.size);

@@ -691,8 +691,8 @@ impl<'a> Renderer<'a> {
                     let (hx, hy, hz) = (h0x + x * dhx, h0y + x * dhy, h0z + x * dhz);
                     let inv_z = 1.0 / hz;
                     let (su, sv) = (hx * inv_z, hy * inv_z);
+                    // `&`, not `&&`: without branches the lanes are computed as vectors.
                     let inside =
-                        // `&`, not `&&`: without branches the lanes are computed as vectors.
                         (hz > 0.0) & (su >= 0.0) & (sv >= 0.0) & (su <= c.max_u) & (sv <= c.max_v);
                     let to_src = [t0x - x * dpx, t0y - x * dpy, t0z - x * dpz];
                     let to_eye = [eye[0][l], eye[1][l], eye[2][l]];
