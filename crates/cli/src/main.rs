@@ -313,9 +313,9 @@ struct RenderArgs {
     /// Voxels along the longest edge of the model used.
     #[arg(long, default_value_t = 128)]
     grid: usize,
-    /// Render at the model's surface, without the depth refinement: faster (about a quarter
-    /// less time a frame), the object's texture a little less sharp. For quick looks and long
-    /// sweeps.
+    /// Render at the model's surface, without the depth refinement: about a quarter less time
+    /// a frame, but blurrier texture (1-1.7 dB lower masked PSNR on the catalogue's textured
+    /// objects at 24 views). For quick looks and long sweeps.
     #[arg(long)]
     no_refine: bool,
 }
