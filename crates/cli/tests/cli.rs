@@ -193,20 +193,19 @@ fn reconstruct_and_render_a_session() -> TestResult {
         !out.status.success() && String::from_utf8_lossy(&out.stderr).contains(reason)
     };
 
+    // The single view every later render is compared with.
+    let view = ["--pan", "-33.5", "--grid", "32"];
     let png = dir.join("novel.png");
     let exr = dir.join("novel.exr");
     let coverage = dir.join("coverage.png");
-    let out = aibr()
-        .arg("render")
-        .arg(&dir)
-        .args(["--pan", "-33.5", "--grid", "32", "-o"])
-        .arg(&png)
-        .arg("--depth")
-        .arg(&exr)
-        .arg("--coverage")
-        .arg(&coverage)
-        .output()?;
-    assert_success(&out);
+    let path = |p: &Path| {
+        p.to_str()
+            .map(str::to_owned)
+            .ok_or("a temporary path is not UTF-8")
+    };
+    let (exr_arg, coverage_arg) = (path(&exr)?, path(&coverage)?);
+    let extras = ["--depth", &exr_arg, "--coverage", &coverage_arg];
+    assert_success(&render(&[&view[..], &extras].concat(), &png)?);
     let rendered = image::open(&png)?.to_rgb8();
     assert_eq!((rendered.width(), rendered.height()), (640, 480));
     assert!(std::fs::metadata(&exr)?.len() > 1000);
@@ -221,10 +220,7 @@ fn reconstruct_and_render_a_session() -> TestResult {
     // Without the refinement only the pixels on the model's surface change: the backdrop,
     // rendered on the focal surface, is the same.
     let plain = dir.join("plain.png");
-    assert_success(&render(
-        &["--pan", "-33.5", "--grid", "32", "--no-refine"],
-        &plain,
-    )?);
+    assert_success(&render(&[&view[..], &["--no-refine"]].concat(), &plain)?);
     let plain = image::open(&plain)?.to_rgb8();
     let mut changed = 0;
     for ((p, r), c) in plain.pixels().zip(rendered.pixels()).zip(coverage.pixels()) {
