@@ -857,7 +857,8 @@ impl<'a> Renderer<'a> {
     /// The blend proper: the `k` sources of least penalty among `found` (source, `u`, `v`),
     /// with weights `(1 - p / p_(k+1)) / p`, sampled at their `(u, v)`. `found` is not empty.
     // Always inlined, like `bilinear`: left out of line (as the compiler chose), the frame
-    // took 8-10% longer, with the same output (session 12, `docs/render.md`).
+    // took about 4-7% longer in alternated runs, with the same output (session 12,
+    // `docs/render.md`).
     #[inline(always)]
     fn mix(&self, found: &[(usize, f32, f32)], penalty: &[f32]) -> [u8; 3] {
         let n = found.len();
