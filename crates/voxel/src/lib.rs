@@ -64,4 +64,4 @@ pub use error::{Error, Result};
 pub use grid::{VoxelGrid, VoxelModel};
 pub use kernel::{Criterion, View};
 pub use ply::{PlyOptions, write_ply};
-pub use raycast::{DepthMap, VoxelHit, is_visible, splat_depths};
+pub use raycast::{DepthMap, SPLAT_MARGIN_VOXELS, VoxelHit, is_visible, splat_depths};

@@ -52,7 +52,9 @@ impl VoxelModel {
         let mut t_delta = [f64::INFINITY; 3];
         for a in 0..3 {
             let local = (p[a] - b.min[a]) / s;
-            let c = (local.floor() as i64).clamp(0, dims[a] as i64 - 1);
+            // Truncation is the floor for `local >= 0`, and both clamp to 0 below it (NaN too);
+            // unlike `floor`, it needs no call into libm on baseline x86-64.
+            let c = (local as i64).clamp(0, dims[a] as i64 - 1);
             cell[a] = c;
             if dir[a] > 0.0 {
                 step[a] = 1;
@@ -94,7 +96,7 @@ impl VoxelModel {
     /// enters the first occupied voxel.
     ///
     /// The surface voxels are first splatted (half their diagonal plus a pixel, so every ray
-    /// that meets a voxel lands in a splat); each ray's DDA then starts two voxels before the
+    /// that meets a voxel lands in a splat); each ray's DDA then starts a voxel before the
     /// nearest splat, and pixels no splat covers meet no voxel.
     pub fn depth_map(&self, camera: &Camera) -> DepthMap {
         let (w, h) = (camera.size.width as usize, camera.size.height as usize);
@@ -109,7 +111,7 @@ impl VoxelModel {
         splat_depths(&centres, s, camera, &mut splat);
         let origin = camera.centre();
         let rot = camera.world_from_cam().rotation;
-        let margin = 2.0 * s;
+        let margin = SPLAT_MARGIN_VOXELS * s;
         let mut data = vec![f32::INFINITY; w * h];
         data.par_chunks_mut(w)
             .zip(splat.par_chunks(w))
@@ -135,6 +137,14 @@ impl VoxelModel {
             .unwrap_or_else(|| DepthMap::new(w as u32, h as u32))
     }
 }
+
+/// How far in front of a pixel's splatted depth ([`splat_depths`] of the model's surface
+/// voxels) its ray may start casting and still meet the model's first occupied voxel, in
+/// voxels: one. The first occupied voxel a ray meets is a surface voxel (the ray entered it
+/// from an empty or out-of-grid 6-neighbour), so its splat covers the pixel and its centre is
+/// not nearer than the splatted depth; and no point of a voxel is nearer than its centre by
+/// more than half its diagonal, 0.87 voxels.
+pub const SPLAT_MARGIN_VOXELS: f64 = 1.0;
 
 /// Splats voxels (by their centres, edge `voxel_size`) into `out`, a `width * height`
 /// buffer of `camera`'s image: each pixel gets the smallest camera-z of the voxels whose
