@@ -277,7 +277,8 @@ pub struct Renderer<'a> {
     tolerance: f64,
     /// Centres of the model's surface voxels, splatted every frame.
     surface: Vec<Point3<f64>>,
-    /// How far in front of the nearest splat a ray's DDA starts (2 voxels).
+    /// How far in front of the nearest splat a ray's DDA starts
+    /// ([`aibr_voxel::SPLAT_MARGIN_VOXELS`], in metres).
     splat_margin: f64,
 }
 
@@ -389,7 +390,7 @@ impl<'a> Renderer<'a> {
             focus,
             tolerance: params.occlusion_tolerance_voxels * s,
             surface: surface.iter().map(|v| grid.centre(*v)).collect(),
-            splat_margin: 2.0 * s,
+            splat_margin: aibr_voxel::SPLAT_MARGIN_VOXELS * s,
         })
     }
 
