@@ -88,6 +88,9 @@ impl Default for RenderParams {
 /// Most candidate sources per frame.
 pub const MAX_CANDIDATES: usize = 16;
 
+/// The refinement's costs per pixel are kept in groups of this many depths.
+const COST_LANES: usize = 8;
+
 /// How a rendered pixel was made (values of [`RenderedView::coverage`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
@@ -222,6 +225,35 @@ impl Source {
             }
         }
         Some((u, v))
+    }
+
+    /// [`Source::pixel`] of the homogeneous coordinates `base + t slope` for a group of
+    /// [`COST_LANES`] values of `t`: the pixels, and whether each is in front of the camera and
+    /// on the image. Computed without branches, the same operations lane by lane, so that the
+    /// compiler does them as vectors.
+    #[inline(always)]
+    fn pixels(
+        &self,
+        base: [f64; 3],
+        slope: [f64; 3],
+        ts: &[f64],
+    ) -> ([f64; COST_LANES], [f64; COST_LANES], [bool; COST_LANES]) {
+        let (max_u, max_v) = ((self.width - 1) as f64, (self.height - 1) as f64);
+        let (mut us, mut vs, mut on) = ([0.0; COST_LANES], [0.0; COST_LANES], [false; COST_LANES]);
+        for (l, &t) in ts.iter().take(COST_LANES).enumerate() {
+            let h = [
+                base[0] + t * slope[0],
+                base[1] + t * slope[1],
+                base[2] + t * slope[2],
+            ];
+            let inv_z = 1.0 / h[2];
+            let (u, v) = (h[0] * inv_z, h[1] * inv_z);
+            // `&`, not `&&`: a branch per lane would keep the loop scalar.
+            on[l] = (h[2] > 0.0) & (u >= 0.0) & (v >= 0.0) & (u <= max_u) & (v <= max_v);
+            us[l] = u;
+            vs[l] = v;
+        }
+        (us, vs, on)
     }
 
     /// The pixel of homogeneous coordinates `h`: `Some((u, v))` when in front of the camera and
@@ -550,10 +582,13 @@ impl<'a> Renderer<'a> {
                 u32::MAX
             };
         }
-        out.costs.resize(out.refined.len() * steps, 0.0);
+        // Each pixel's costs in a cell of whole groups of eight, so that the window sums below
+        // add eight depths at a time; the padding stays zero and is never read.
+        let stride = steps.next_multiple_of(COST_LANES);
+        out.costs.resize(out.refined.len() * stride, 0.0);
         let depths = &out.splat;
         out.costs
-            .par_chunks_mut(steps)
+            .par_chunks_mut(stride)
             .zip(out.refined.par_iter())
             .for_each(|(cell, &i)| {
                 let (u, v) = (i as usize % w, i as usize / w);
@@ -564,19 +599,26 @@ impl<'a> Renderer<'a> {
                 // The point `p + t dir` in each source, homogeneous: `base + t slope`.
                 let (ba, sa) = (a.homogeneous(&p), a.direction(&dir));
                 let (bb, sb) = (b.homogeneous(&p), b.direction(&dir));
-                for (cost, &t) in cell.iter_mut().zip(&offsets) {
-                    let ha = [ba[0] + t * sa[0], ba[1] + t * sa[1], ba[2] + t * sa[2]];
-                    let hb = [bb[0] + t * sb[0], bb[1] + t * sb[1], bb[2] + t * sb[2]];
-                    *cost = match (a.pixel(ha), b.pixel(hb)) {
-                        (Some((ua, va)), Some((ub, vb))) => {
-                            let ca = bilinear(&a.image, ua as f32, va as f32);
-                            let cb = bilinear(&b.image, ub as f32, vb as f32);
+                let groups = cell
+                    .chunks_exact_mut(COST_LANES)
+                    .zip(offsets.chunks_exact(COST_LANES));
+                for (g, (group, ts)) in groups.enumerate() {
+                    // Where each depth's point falls in the two sources, for a group of depths
+                    // at once; then the samples, one depth at a time.
+                    let (ua, va, on_a) = a.pixels(ba, sa, ts);
+                    let (ub, vb, on_b) = b.pixels(bb, sb, ts);
+                    let depths_here = COST_LANES.min(steps - g * COST_LANES);
+                    for (l, cost) in group[..depths_here].iter_mut().enumerate() {
+                        *cost = if on_a[l] && on_b[l] {
+                            let ca = bilinear(&a.image, ua[l] as f32, va[l] as f32);
+                            let cb = bilinear(&b.image, ub[l] as f32, vb[l] as f32);
                             let (dr, dg, db) = (ca[0] - cb[0], ca[1] - cb[1], ca[2] - cb[2]);
                             dr * dr + dg * dg + db * db
-                        }
-                        // Off a source: as bad as the worst colour difference.
-                        _ => 3.0 * 255.0 * 255.0,
-                    };
+                        } else {
+                            // Off a source: as bad as the worst colour difference.
+                            3.0 * 255.0 * 255.0
+                        };
+                    }
                 }
             });
         let (costs, slots) = (&out.costs, &out.slots);
@@ -593,7 +635,7 @@ impl<'a> Renderer<'a> {
                         continue;
                     }
                     let z = depths[v * w + u];
-                    total[..steps].fill(0.0);
+                    total[..stride].fill(0.0);
                     for vv in v.saturating_sub(r)..(v + r + 1).min(h) {
                         for uu in u.saturating_sub(r)..(u + r + 1).min(w) {
                             let i = vv * w + uu;
@@ -601,9 +643,14 @@ impl<'a> Renderer<'a> {
                             if slot == u32::MAX as usize || (depths[i] - z).abs() > same_surface {
                                 continue;
                             }
-                            let cell = &costs[slot * steps..(slot + 1) * steps];
-                            for (t, c) in total.iter_mut().zip(cell) {
-                                *t += *c;
+                            let cell = &costs[slot * stride..(slot + 1) * stride];
+                            for (t, c) in total
+                                .chunks_exact_mut(COST_LANES)
+                                .zip(cell.chunks_exact(COST_LANES))
+                            {
+                                for l in 0..COST_LANES {
+                                    t[l] += c[l];
+                                }
                             }
                         }
                     }
@@ -882,7 +929,7 @@ impl<'a> Renderer<'a> {
             2.0 * penalty_at(k - 1)
         } + 1e-12;
         let inv_threshold = 1.0 / threshold;
-        let (mut acc, mut total) = ([0f32; 3], 0f64);
+        let (mut acc, mut total) = ([0f32; 4], 0f64);
         for rank in 0..k {
             let pen = penalty_at(rank);
             let (i, u, v) = found[order[rank] as usize];
@@ -890,14 +937,14 @@ impl<'a> Renderer<'a> {
             // a virtual camera at a source reproduces it (epipole consistency).
             let wgt = (1.0 - pen * inv_threshold).max(0.0) / (pen + 1e-6) + 1e-12;
             let c = bilinear(&self.sources[i].image, u, v);
-            for ch in 0..3 {
+            for ch in 0..4 {
                 acc[ch] += wgt as f32 * c[ch];
             }
             total += wgt;
         }
         let inv_total = (1.0 / total) as f32;
         // A weighted mean of bytes: in [0, 255] up to rounding, and `as` saturates.
-        let [r, g, b] = acc;
+        let [r, g, b, _] = acc;
         [
             (r * inv_total + 0.5) as u8,
             (g * inv_total + 0.5) as u8,
@@ -994,9 +1041,10 @@ impl FocalRow {
 }
 
 /// Bilinear sample at `(u, v)` (pixel centres at integers, `0 <= u <= width - 1`,
-/// `0 <= v <= height - 1`) of an image at least 2 pixels wide and high.
+/// `0 <= v <= height - 1`) of an image at least 2 pixels wide and high: red, green and blue,
+/// and a fourth lane that is zero, so that callers can work on all four lanes at once.
 #[inline(always)]
-fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 3] {
+fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 4] {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let raw = img.as_raw();
     if w < 2 || h < 2 {
@@ -1005,7 +1053,10 @@ fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 3] {
             (v as usize).min(h.saturating_sub(1)),
         );
         let at = (y * w + x) * 3;
-        return std::array::from_fn(|c| raw.get(at + c).copied().unwrap_or(0) as f32);
+        return std::array::from_fn(|c| match c {
+            0..3 => raw.get(at + c).copied().unwrap_or(0) as f32,
+            _ => 0.0,
+        });
     }
     // Truncation is the floor for u, v >= 0; the last pixel samples the last cell's far edge.
     let x0 = (u as usize).min(w - 2);
@@ -1013,17 +1064,25 @@ fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 3] {
     let (fx, fy) = (u - x0 as f32, v - y0 as f32);
     let top = (y0 * w + x0) * 3;
     let bottom = top + w * 3;
-    let (Some(t), Some(b)) = (raw.get(top..top + 6), raw.get(bottom..bottom + 6)) else {
-        return [0.0; 3];
+    let (Some(t), Some(b)) = (texel_pair(raw, top), texel_pair(raw, bottom)) else {
+        return [0.0; 4];
     };
-    // The four texels' weights, then one multiply-add per texel and channel.
+    // The four texels' weights, then one multiply-add per texel and lane.
     let (gx, gy) = (1.0 - fx, 1.0 - fy);
     let (w00, w01, w10, w11) = (gx * gy, fx * gy, gx * fy, fx * fy);
-    let mut out = [0f32; 3];
-    for (c, o) in out.iter_mut().enumerate() {
-        *o = t[c] as f32 * w00 + t[c + 3] as f32 * w01 + b[c] as f32 * w10 + b[c + 3] as f32 * w11;
-    }
-    out
+    std::array::from_fn(|c| t[0][c] * w00 + t[1][c] * w01 + b[0][c] * w10 + b[1][c] * w11)
+}
+
+/// The two RGB texels at byte `at` of `raw` and the next, as four lanes each (the fourth
+/// zero): each is one four-byte load, one shift and one vector conversion.
+#[inline(always)]
+fn texel_pair(raw: &[u8], at: usize) -> Option<[[f32; 4]; 2]> {
+    let bytes: &[u8; 6] = raw.get(at..at + 6)?.try_into().ok()?;
+    let [r0, g0, b0, r1, g1, b1] = *bytes;
+    // Little-endian: the first texel's bytes in the low lanes; the second's moved down a lane.
+    let first = u32::from_le_bytes([r0, g0, b0, r1]) & 0x00ff_ffff;
+    let second = u32::from_le_bytes([b0, r1, g1, b1]) >> 8;
+    Some([first, second].map(|x| x.to_le_bytes().map(f32::from)))
 }
 
 #[cfg(test)]
@@ -1034,6 +1093,63 @@ mod tests {
     use image::Rgb;
 
     type TestResult = std::result::Result<(), Box<dyn std::error::Error>>;
+
+    proptest::proptest! {
+        /// The refinement's group of depths projected at once gives, lane by lane, what
+        /// [`Source::pixel`] gives for each depth on its own, bit for bit.
+        #[test]
+        fn a_group_of_depths_projects_as_each_alone(
+            base in proptest::array::uniform3(-400.0f64..1000.0),
+            slope in proptest::array::uniform3(-300.0f64..300.0),
+            t0 in -0.01f64..0.01,
+            dt in 0.0f64..0.005,
+        ) {
+            let (width, height) = (64, 48);
+            let source = Source {
+                image: RgbImage::new(width, height),
+                depth: Vec::new(),
+                p: [[0.0; 4]; 3],
+                centre: Point3::origin(),
+                width,
+                height,
+            };
+            let ts: [f64; COST_LANES] = std::array::from_fn(|l| t0 + dt * l as f64);
+            let (us, vs, on) = source.pixels(base, slope, &ts);
+            for (l, &t) in ts.iter().enumerate() {
+                let h = [base[0] + t * slope[0], base[1] + t * slope[1], base[2] + t * slope[2]];
+                match source.pixel(h) {
+                    Some((u, v)) => {
+                        proptest::prop_assert!(on[l]);
+                        proptest::prop_assert_eq!((us[l].to_bits(), vs[l].to_bits()), (u.to_bits(), v.to_bits()));
+                    }
+                    None => proptest::prop_assert!(!on[l]),
+                }
+            }
+        }
+
+        /// The bilinear sample's four lanes: red, green and blue as the textbook formula gives
+        /// them from the four texels around `(u, v)`, and zero.
+        #[test]
+        fn bilinear_samples_the_four_texels_around(
+            pixels in proptest::collection::vec(proptest::num::u8::ANY, 5 * 4 * 3),
+            u in 0.0f32..=4.0,
+            v in 0.0f32..=3.0,
+        ) {
+            let img = RgbImage::from_raw(5, 4, pixels).ok_or(proptest::test_runner::TestCaseError::fail("image"))?;
+            let (x0, y0) = ((u as u32).min(3), (v as u32).min(2));
+            let (fx, fy) = (u - x0 as f32, v - y0 as f32);
+            let texel = |x: u32, y: u32, c: usize| img.get_pixel(x, y).0[c] as f32;
+            let got = bilinear(&img, u, v);
+            for (c, &lane) in got.iter().take(3).enumerate() {
+                let want = texel(x0, y0, c) * (1.0 - fx) * (1.0 - fy)
+                    + texel(x0 + 1, y0, c) * fx * (1.0 - fy)
+                    + texel(x0, y0 + 1, c) * (1.0 - fx) * fy
+                    + texel(x0 + 1, y0 + 1, c) * fx * fy;
+                proptest::prop_assert!((lane - want).abs() <= 1e-3, "lane {}: {} against {}", c, lane, want);
+            }
+            proptest::prop_assert_eq!(got[3], 0.0);
+        }
+    }
 
     /// The focal-plane runs of the main pass (pixels no splat covers, shaded a chunk at a
     /// time in single precision) give what shading each pixel on its own gives.
