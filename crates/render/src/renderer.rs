@@ -1064,25 +1064,95 @@ fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 4] {
     let (fx, fy) = (u - x0 as f32, v - y0 as f32);
     let top = (y0 * w + x0) * 3;
     let bottom = top + w * 3;
-    let (Some(t), Some(b)) = (texel_pair(raw, top), texel_pair(raw, bottom)) else {
+    let (Some(t), Some(b)) = (texel_words(raw, top), texel_words(raw, bottom)) else {
         return [0.0; 4];
     };
     // The four texels' weights, then one multiply-add per texel and lane.
     let (gx, gy) = (1.0 - fx, 1.0 - fy);
-    let (w00, w01, w10, w11) = (gx * gy, fx * gy, gx * fy, fx * fy);
-    std::array::from_fn(|c| t[0][c] * w00 + t[1][c] * w01 + b[0][c] * w10 + b[1][c] * w11)
+    weigh_texels(t, b, [gx * gy, fx * gy, gx * fy, fx * fy])
 }
 
-/// The two RGB texels at byte `at` of `raw` and the next, as four lanes each (the fourth
-/// zero): each is one four-byte load, one shift and one vector conversion.
+/// The two RGB texels at byte `at` of `raw` and the next, each as a little-endian word with
+/// red in the low byte and zero in the high one.
 #[inline(always)]
-fn texel_pair(raw: &[u8], at: usize) -> Option<[[f32; 4]; 2]> {
+fn texel_words(raw: &[u8], at: usize) -> Option<[u32; 2]> {
     let bytes: &[u8; 6] = raw.get(at..at + 6)?.try_into().ok()?;
     let [r0, g0, b0, r1, g1, b1] = *bytes;
-    // Little-endian: the first texel's bytes in the low lanes; the second's moved down a lane.
-    let first = u32::from_le_bytes([r0, g0, b0, r1]) & 0x00ff_ffff;
-    let second = u32::from_le_bytes([b0, r1, g1, b1]) >> 8;
-    Some([first, second].map(|x| x.to_le_bytes().map(f32::from)))
+    Some([
+        u32::from_le_bytes([r0, g0, b0, r1]) & 0x00ff_ffff,
+        u32::from_le_bytes([b0, r1, g1, b1]) >> 8,
+    ])
+}
+
+/// `w[0] top[0] + w[1] top[1] + w[2] bottom[0] + w[3] bottom[1]` for texels as
+/// [`texel_words`] gives them, lane by lane (red, green, blue, zero), in that order of
+/// operations.
+///
+/// On x86-64 in SSE2 vectors (baseline there, so the intrinsics are safe to call): the
+/// compiler left the portable form ([`weigh_texels_portable`], which gives the same bits)
+/// with a scalar conversion and multiply-add per byte, and the samples are about a third of a
+/// frame's instructions (session 14, `docs/render.md`).
+#[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+#[allow(unsafe_code)]
+#[inline(always)]
+fn weigh_texels(top: [u32; 2], bottom: [u32; 2], w: [f32; 4]) -> [f32; 4] {
+    use std::arch::x86_64::{
+        _mm_add_ps, _mm_cvtepi32_ps, _mm_cvtss_f32, _mm_mul_ps, _mm_set_epi32, _mm_set1_ps,
+        _mm_setzero_si128, _mm_shuffle_ps, _mm_unpackhi_epi8, _mm_unpackhi_epi16,
+        _mm_unpacklo_epi8, _mm_unpacklo_epi16,
+    };
+    // SAFETY: the intrinsics are `unsafe` only for the SSE2 they need, which this function is
+    // compiled with (`cfg` above: baseline on x86-64); they touch no memory.
+    unsafe {
+        let zero = _mm_setzero_si128();
+        let words = _mm_set_epi32(
+            bottom[1] as i32,
+            bottom[0] as i32,
+            top[1] as i32,
+            top[0] as i32,
+        );
+        // Bytes widened to 16 bits, then 32, then converted: one vector per texel.
+        let (upper, lower) = (
+            _mm_unpacklo_epi8(words, zero),
+            _mm_unpackhi_epi8(words, zero),
+        );
+        let texel = [
+            _mm_unpacklo_epi16(upper, zero),
+            _mm_unpackhi_epi16(upper, zero),
+            _mm_unpacklo_epi16(lower, zero),
+            _mm_unpackhi_epi16(lower, zero),
+        ]
+        .map(|x| _mm_cvtepi32_ps(x));
+        let term = |i: usize| _mm_mul_ps(texel[i], _mm_set1_ps(w[i]));
+        let sum = _mm_add_ps(_mm_add_ps(_mm_add_ps(term(0), term(1)), term(2)), term(3));
+        [
+            _mm_cvtss_f32(sum),
+            _mm_cvtss_f32(_mm_shuffle_ps::<0x55>(sum, sum)),
+            _mm_cvtss_f32(_mm_shuffle_ps::<0xaa>(sum, sum)),
+            _mm_cvtss_f32(_mm_shuffle_ps::<0xff>(sum, sum)),
+        ]
+    }
+}
+
+/// [`weigh_texels`] elsewhere.
+#[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+#[inline(always)]
+fn weigh_texels(top: [u32; 2], bottom: [u32; 2], w: [f32; 4]) -> [f32; 4] {
+    weigh_texels_portable(top, bottom, w)
+}
+
+/// [`weigh_texels`] in portable code.
+#[cfg_attr(all(target_arch = "x86_64", target_feature = "sse2"), allow(dead_code))]
+#[inline(always)]
+fn weigh_texels_portable(top: [u32; 2], bottom: [u32; 2], w: [f32; 4]) -> [f32; 4] {
+    let lanes = |x: u32| x.to_le_bytes().map(f32::from);
+    let (t0, t1, b0, b1) = (
+        lanes(top[0]),
+        lanes(top[1]),
+        lanes(bottom[0]),
+        lanes(bottom[1]),
+    );
+    std::array::from_fn(|c| t0[c] * w[0] + t1[c] * w[1] + b0[c] * w[2] + b1[c] * w[3])
 }
 
 #[cfg(test)]
@@ -1125,6 +1195,20 @@ mod tests {
                     None => proptest::prop_assert!(!on[l]),
                 }
             }
+        }
+
+        /// The texels weighed in vectors give the portable form's bits (on other targets the
+        /// two are one function).
+        #[test]
+        fn texels_weigh_alike_in_vectors_and_in_portable_code(
+            words in proptest::array::uniform4(0u32..=0x00ff_ffff),
+            w in proptest::array::uniform4(0.0f32..=1.0),
+        ) {
+            let (top, bottom) = ([words[0], words[1]], [words[2], words[3]]);
+            proptest::prop_assert_eq!(
+                weigh_texels(top, bottom, w).map(f32::to_bits),
+                weigh_texels_portable(top, bottom, w).map(f32::to_bits)
+            );
         }
 
         /// The bilinear sample's four lanes: red, green and blue as the textbook formula gives
