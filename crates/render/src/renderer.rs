@@ -1093,10 +1093,10 @@ fn texel_words(raw: &[u8], at: usize) -> Option<[u32; 2]> {
 /// [`texel_words`] gives them, lane by lane (red, green, blue, zero), in that order of
 /// operations.
 ///
-/// On x86-64 in SSE2 vectors (baseline there, so the intrinsics are safe to call): the
-/// compiler left the portable form ([`weigh_texels_portable`], which gives the same bits)
-/// with a scalar conversion and multiply-add per byte, and the samples are about a third of a
-/// frame's instructions (session 14, `docs/render.md`).
+/// On x86-64 in SSE2 vectors (baseline there; the intrinsics' `unsafe` is only for that, see
+/// `docs/architecture.md`): the compiler left the portable form ([`weigh_texels_portable`],
+/// which gives the same bits) with a scalar conversion and multiply-add per byte, and the
+/// samples were about a third of a frame's instructions (session 14, `docs/render.md`).
 #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
 #[allow(unsafe_code)]
 #[inline(always)]
