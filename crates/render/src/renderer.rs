@@ -222,8 +222,10 @@ impl Source {
         let h = self.homogeneous(p);
         let (u, v) = self.pixel(h)?;
         if let Some(tolerance) = occlusion {
-            // u, v >= 0 here, so adding a half and truncating rounds them.
-            let d = self.depth[((v + 0.5) as usize) * self.width as usize + (u + 0.5) as usize];
+            // u, v >= 0 here, so adding a half and truncating rounds them (through `i32`, one
+            // instruction on x86-64 where `usize` takes several).
+            let (x, y) = ((u + 0.5) as i32 as usize, (v + 0.5) as i32 as usize);
+            let d = self.depth[y * self.width as usize + x];
             if h[2] > d as f64 + tolerance {
                 return None;
             }
