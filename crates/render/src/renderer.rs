@@ -235,8 +235,8 @@ impl Source {
 
     /// [`Source::pixel`] of the homogeneous coordinates `base + t slope` for a group of
     /// [`COST_LANES`] values of `t`: the pixels, with `u` set to [`OFF_IMAGE`] where the point is
-    /// behind the camera or off the image. Computed without branches, the same operations lane by
-    /// lane, so that the compiler does them as vectors.
+    /// behind the camera or off the image. Without branches (a select rather than a flag), so
+    /// that the compiler does the lanes as vectors.
     #[inline(always)]
     fn pixels(
         &self,
@@ -244,18 +244,9 @@ impl Source {
         slope: [f64; 3],
         ts: &[f64],
     ) -> ([f64; COST_LANES], [f64; COST_LANES]) {
-        let (max_u, max_v) = ((self.width - 1) as f64, (self.height - 1) as f64);
         let (mut us, mut vs) = ([0.0; COST_LANES], [0.0; COST_LANES]);
         for (l, &t) in ts.iter().take(COST_LANES).enumerate() {
-            let h = [
-                base[0] + t * slope[0],
-                base[1] + t * slope[1],
-                base[2] + t * slope[2],
-            ];
-            let inv_z = 1.0 / h[2];
-            let (u, v) = (h[0] * inv_z, h[1] * inv_z);
-            // `&`, not `&&`, and a select rather than a flag: both keep the lanes in vectors.
-            let on = (h[2] > 0.0) & (u >= 0.0) & (v >= 0.0) & (u <= max_u) & (v <= max_v);
+            let (u, v, on) = self.project(std::array::from_fn(|i| base[i] + t * slope[i]));
             us[l] = if on { u } else { OFF_IMAGE };
             vs[l] = v;
         }
@@ -266,14 +257,19 @@ impl Source {
     /// on the image (so `u, v >= 0`).
     #[inline]
     fn pixel(&self, h: [f64; 3]) -> Option<(f64, f64)> {
-        if !(h[2] > 0.0) {
-            return None;
-        }
+        let (u, v, on) = self.project(h);
+        on.then_some((u, v))
+    }
+
+    /// The pixel `(u, v)` of homogeneous coordinates `h`, and whether it is in front of the
+    /// camera and on the image; `&`, not `&&`, so that it has no branches.
+    #[inline(always)]
+    fn project(&self, h: [f64; 3]) -> (f64, f64, bool) {
         let inv_z = 1.0 / h[2];
         let (u, v) = (h[0] * inv_z, h[1] * inv_z);
-        let inside =
-            u >= 0.0 && v >= 0.0 && u <= (self.width - 1) as f64 && v <= (self.height - 1) as f64;
-        inside.then_some((u, v))
+        let (max_u, max_v) = ((self.width - 1) as f64, (self.height - 1) as f64);
+        let on = (h[2] > 0.0) & (u >= 0.0) & (v >= 0.0) & (u <= max_u) & (v <= max_v);
+        (u, v, on)
     }
 }
 
