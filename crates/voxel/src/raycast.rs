@@ -76,10 +76,13 @@ impl VoxelModel {
         // axis's stride. (Reading another layout by cell instead of copying it, or the walk as
         // a generic over the two, measured 1-5% slower frames in the renderer, session 15.)
         let occupied = self.occupied.as_standard_layout();
+        // Indexed `[[k, j, i]]`: the strides of `i`, `j` and `k` are its last, middle and first.
+        let stride = match *occupied.strides() {
+            [sk, sj, si] => [si, sj, sk],
+            _ => [0; 3], // an `Array3` has three
+        };
         let occupied = occupied.as_slice().unwrap_or(&[]);
-        let stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
-        let mut at =
-            (cell[0] + cell[1] * dims[0] as i64 + cell[2] * (dims[0] * dims[1]) as i64) as isize;
+        let mut at: isize = (0..3).map(|a| cell[a] as isize * stride[a]).sum();
         loop {
             if occupied.get(at as usize) == Some(&true) {
                 let voxel = [cell[0] as usize, cell[1] as usize, cell[2] as usize];
@@ -423,6 +426,7 @@ mod tests {
     /// Casts 2000 random rays from around the unit box toward points in it and checks each
     /// against a brute-force march through `m`.
     fn agrees_with_marching(m: &VoxelModel, mut seed: u64) {
+        let size = m.grid().voxel_size();
         let mut rnd = || {
             seed = seed
                 .wrapping_mul(6364136223846793005)
@@ -445,6 +449,11 @@ mod tests {
                     }
                 }
             }
+            // Where the ray passes through voxel `c`, if it does.
+            let cube = |c: [usize; 3]| {
+                let lo = m.grid().centre(c) - Vector3::repeat(0.5 * size);
+                aibr_camera::aabb::slab(&lo, &(lo + Vector3::repeat(size)), &o, &d)
+            };
             // Marching can step over a corner the ray clips; the DDA may then find a voxel
             // first, which the ray must really pass through, no later than marching's.
             if let Some(v) = march {
@@ -452,20 +461,14 @@ mod tests {
                     panic!("DDA missed {v:?} from {o} toward {target}")
                 };
                 if w != v {
-                    let cube = |c: [usize; 3]| {
-                        let lo = m.grid().centre(c) - Vector3::repeat(0.05);
-                        aibr_camera::aabb::slab(&lo, &(lo + Vector3::repeat(0.1)), &o, &d)
-                    };
                     let (tw, tv) = (cube(w), cube(v));
                     assert!(tw.is_some() && tv.is_some(), "ray from {o} toward {target}");
                     assert!(tw.map(|t| t.0) <= tv.map(|t| t.0));
                 }
             } else if let Some(w) = dda {
                 // Only a voxel the ray clips at a corner, which marching stepped over.
-                let lo = m.grid().centre(w) - Vector3::repeat(0.05);
-                let clip = aibr_camera::aabb::slab(&lo, &(lo + Vector3::repeat(0.1)), &o, &d);
                 assert!(
-                    clip.is_some_and(|(t0, t1)| t1 - t0 < 1e-3),
+                    cube(w).is_some_and(|(t0, t1)| t1 - t0 < 1e-3),
                     "ray from {o} toward {target}"
                 );
             }
