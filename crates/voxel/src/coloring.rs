@@ -180,65 +180,148 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
         .filter(|(_, o)| **o)
         .map(|((k, j, i), _)| [i, j, k])
         .collect();
-    let seen: Vec<Vec<bool>> = projectors
+    // The voxels are listed row by row; each view projects each row's base once.
+    let mut rows: Vec<(usize, usize)> = Vec::new();
+    let mut row_of = Vec::with_capacity(voxels.len());
+    for &[_, j, k] in &voxels {
+        if rows.last() != Some(&(j, k)) {
+            rows.push((j, k));
+        }
+        row_of.push(rows.len() - 1);
+    }
+    let list = VoxelList {
+        rows,
+        row_of,
+        xs: voxels.iter().map(|v| v[0] as f32).collect(),
+    };
+    let seen = projectors
         .par_iter()
-        .map(|proj| {
-            // The voxels are listed row by row: one row base serves a run of them.
-            let mut row = (usize::MAX, usize::MAX, [0f32; 3]);
-            let fps: Vec<(Footprint, f32)> = voxels
-                .iter()
-                .map(|&[i, j, k]| {
-                    if (row.0, row.1) != (j, k) {
-                        row = (j, k, proj.row_base(&grid, j, k));
-                    }
-                    proj.footprint_at(&row.2, i as f32)
-                })
-                .collect();
-            // The z-buffer covers only the footprints' bounding box.
-            let (mut u0, mut u1, mut v0, mut v1) = (u32::MAX, 0, u32::MAX, 0);
-            for (fp, _) in fps.iter().filter(|(fp, _)| !fp.is_empty()) {
-                (u0, u1) = (u0.min(fp.u0), u1.max(fp.u1));
-                (v0, v1) = (v0.min(fp.v0), v1.max(fp.v1));
-            }
-            let width = u1.saturating_sub(u0) as usize + 1;
-            let area = if u0 > u1 {
-                0
-            } else {
-                width * (v1 - v0 + 1) as usize
-            };
-            // Per pixel, the nearest voxel as one key: the depth's bits (positive floats order
-            // as their bits do) above the voxel's index, so the smallest key is the nearest
-            // voxel and ties go to the lower index, the same in every run.
-            let mut nearest = vec![u64::MAX; area];
-            for (n, (fp, z)) in fps.iter().enumerate() {
-                if fp.is_empty() {
-                    continue;
+        .fold(
+            || (vec![false; voxels.len()], ZBuffer::default()),
+            |(mut seen, mut z), proj| {
+                z.mark_seen(&grid, proj, &list, &mut seen);
+                (seen, z)
+            },
+        )
+        .map(|(seen, _)| seen)
+        .reduce(
+            || vec![false; voxels.len()],
+            |mut a, b| {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x |= y;
                 }
-                let key = (u64::from(z.to_bits()) << 32) | n as u64;
-                let (a, b) = ((fp.u0 - u0) as usize, (fp.u1 - u0) as usize + 1);
-                for v in (fp.v0 - v0) as usize..(fp.v1 - v0) as usize + 1 {
-                    let row = v * width;
-                    for k in &mut nearest[row + a..row + b] {
-                        *k = (*k).min(key);
-                    }
-                }
-            }
-            let mut wins = vec![0u32; voxels.len()];
-            for &k in &nearest {
-                if k != u64::MAX {
-                    wins[(k & u64::from(u32::MAX)) as usize] += 1;
-                }
-            }
-            fps.iter()
-                .zip(&wins)
-                .map(|((fp, _), &w)| !fp.is_empty() && 4 * w >= fp.area())
-                .collect()
-        })
-        .collect();
-    for (n, &v) in voxels.iter().enumerate() {
-        if !seen.iter().any(|s| s[n]) {
+                a
+            },
+        );
+    for (&v, &s) in voxels.iter().zip(&seen) {
+        if !s {
             model.clear(v);
             stats.kept -= 1;
+        }
+    }
+}
+
+/// Voxels listed row by row, as the z-buffers take them.
+struct VoxelList {
+    /// The rows `(j, k)` that hold listed voxels.
+    rows: Vec<(usize, usize)>,
+    /// Per voxel: its row in `rows`, and its `i` (exact in f32 below 2^24).
+    row_of: Vec<usize>,
+    xs: Vec<f32>,
+}
+
+/// One view's z-buffer over a list of voxels, its buffers kept from view to view.
+#[derive(Default)]
+struct ZBuffer {
+    /// Per row of the list: its base in this view.
+    bases: Vec<[f32; 3]>,
+    /// Per voxel: the homogeneous projection of its centre.
+    h: [Vec<f32>; 3],
+    /// Per voxel: its footprint and the depth (homogeneous w) of its centre.
+    footprints: Vec<Footprint>,
+    depths: Vec<f32>,
+    /// Per pixel of the footprints' bounding box, the nearest voxel as one key: the depth's
+    /// bits (positive floats order as their bits do) above the voxel's index, so the
+    /// smallest key is the nearest voxel and ties go to the lower index, the same in every
+    /// run.
+    nearest: Vec<u64>,
+    /// Per voxel: the pixels it is nearest at.
+    wins: Vec<u32>,
+}
+
+impl ZBuffer {
+    /// Sets `seen[n]` for every voxel `n` of `list` nearest in this view at no less than a
+    /// quarter of its footprint.
+    fn mark_seen(
+        &mut self,
+        grid: &VoxelGrid,
+        proj: &Projector,
+        list: &VoxelList,
+        seen: &mut [bool],
+    ) {
+        self.bases.clear();
+        self.bases
+            .extend(list.rows.iter().map(|&(j, k)| proj.row_base(grid, j, k)));
+        // `along_row`, then the footprints in a loop of their own, which vectorises.
+        let inc = proj.inc;
+        for (a, h) in self.h.iter_mut().enumerate() {
+            h.clear();
+            h.extend(
+                list.row_of
+                    .iter()
+                    .zip(&list.xs)
+                    .map(|(&r, &i)| self.bases[r][a] + inc[a] * i),
+            );
+        }
+        let count = list.xs.len();
+        let (fps, depths) = (&mut self.footprints, &mut self.depths);
+        fps.resize(count, Footprint::EMPTY);
+        depths.resize(count, 0.0);
+        let [hx, hy, hz] = &self.h;
+        for ((((fp, d), &x), &y), &z) in fps
+            .iter_mut()
+            .zip(depths.iter_mut())
+            .zip(hx)
+            .zip(hy)
+            .zip(hz)
+        {
+            (*fp, *d) = proj.footprint_of(x, y, z);
+        }
+        // The z-buffer covers only the footprints' bounding box.
+        let (mut u0, mut u1, mut v0, mut v1) = (u32::MAX, 0, u32::MAX, 0);
+        for fp in fps.iter().filter(|fp| !fp.is_empty()) {
+            (u0, u1) = (u0.min(fp.u0), u1.max(fp.u1));
+            (v0, v1) = (v0.min(fp.v0), v1.max(fp.v1));
+        }
+        if u0 > u1 {
+            return;
+        }
+        let width = (u1 - u0) as usize + 1;
+        self.nearest.clear();
+        self.nearest
+            .resize(width * (v1 - v0 + 1) as usize, u64::MAX);
+        for (n, (fp, z)) in fps.iter().zip(depths.iter()).enumerate() {
+            if fp.is_empty() {
+                continue;
+            }
+            let key = (u64::from(z.to_bits()) << 32) | n as u64;
+            let (a, b) = ((fp.u0 - u0) as usize, (fp.u1 - u0) as usize + 1);
+            for v in (fp.v0 - v0) as usize..(fp.v1 - v0) as usize + 1 {
+                let row = v * width;
+                for k in &mut self.nearest[row + a..row + b] {
+                    *k = (*k).min(key);
+                }
+            }
+        }
+        self.wins.clear();
+        self.wins.resize(fps.len(), 0);
+        for &k in &self.nearest {
+            if k != u64::MAX {
+                self.wins[(k & u64::from(u32::MAX)) as usize] += 1;
+            }
+        }
+        for ((s, fp), &w) in seen.iter_mut().zip(fps.iter()).zip(&self.wins) {
+            *s |= !fp.is_empty() && 4 * w >= fp.area();
         }
     }
 }

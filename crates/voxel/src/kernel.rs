@@ -160,7 +160,7 @@ pub(crate) struct Projector {
     /// `P = K [R | t]`, f64 for row bases.
     p: [[f64; 4]; 3],
     /// `P[:, 0] * voxel_size`: the step of the homogeneous projection along +x.
-    inc: [f32; 3],
+    pub(crate) inc: [f32; 3],
     /// Half the projected voxel edge at unit depth, pixels.
     half: f32,
     width: i32,
@@ -249,6 +249,14 @@ impl Projector {
     #[inline]
     pub(crate) fn footprint_at(&self, base: &[f32; 3], i: f32) -> (Footprint, f32) {
         let [x, y, z] = [0, 1, 2].map(|a| base[a] + self.inc[a] * i);
+        self.footprint_of(x, y, z)
+    }
+
+    /// The footprint of a voxel whose centre projects to the homogeneous point `(x, y, z)`,
+    /// and `z`: [`Projector::footprint`] with [`Footprint::EMPTY`] for `None`, without
+    /// branches.
+    #[inline]
+    pub(crate) fn footprint_of(&self, x: f32, y: f32, z: f32) -> (Footprint, f32) {
         let inv = 1.0 / z;
         let (u, v, r) = (x * inv, y * inv, self.half * inv);
         // Clamped to the image, a footprint wholly off it comes out empty, as `clip` would
@@ -414,14 +422,31 @@ impl PixelBits {
         }
     }
 
-    /// The bits of a `width` x `height` image, set where `set(pixel index)` says.
-    pub(crate) fn from_fn(width: usize, height: usize, set: impl Fn(usize) -> bool) -> Self {
+    /// The bits of a `width` x `height` image, set where `values` (row-major, one per
+    /// pixel) is zero; pixels beyond the end of `values` stay unset.
+    pub(crate) fn zeros_of(width: usize, height: usize, values: &[u8]) -> Self {
         let mut out = Self::none_set(width, height);
-        for y in 0..height {
-            for x in 0..width {
-                if set(y * width + x) {
-                    out.bits[y * out.words + x / 64] |= 1 << (x % 64);
+        if width == 0 {
+            return out;
+        }
+        for (row, words) in values
+            .chunks_exact(width)
+            .zip(out.bits.chunks_exact_mut(out.words))
+        {
+            for (word, pixels) in words.iter_mut().zip(row.chunks(64)) {
+                let eights = pixels.chunks_exact(8);
+                let tail = eights.remainder();
+                let mut w = 0u64;
+                for (e, bytes) in eights.enumerate() {
+                    let mut b = [0u8; 8];
+                    b.copy_from_slice(bytes);
+                    w |= zero_bytes(u64::from_le_bytes(b)) << (8 * e);
                 }
+                let done = pixels.len() - tail.len();
+                for (i, &p) in tail.iter().enumerate() {
+                    w |= u64::from(p == 0) << (done + i);
+                }
+                *word = w;
             }
         }
         out
@@ -470,6 +495,16 @@ impl PixelBits {
             }
         }
     }
+}
+
+/// Bit `i` set where byte `i` (little-endian) of `x` is zero.
+#[inline]
+fn zero_bytes(x: u64) -> u64 {
+    const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
+    // 0x80 in each zero byte and nowhere else (the low seven bits cannot carry across bytes).
+    let high = !(((x & LOW7) + LOW7) | x | LOW7);
+    // The eight high bits gathered into the top byte, byte 0's lowest.
+    ((high >> 7).wrapping_mul(0x0102_0408_1020_4080)) >> 56
 }
 
 /// The words of a row that hold a footprint's pixels `u0..=u1`, and the masks of those
@@ -531,9 +566,7 @@ pub(crate) struct ViewBits {
 impl ViewBits {
     pub(crate) fn new(px: &Pixels<'_>) -> Self {
         let (w, h) = (px.width, px.height());
-        let background = px
-            .mask
-            .map(|m| PixelBits::from_fn(w, h, |i| m.get(i).is_some_and(|&b| b == 0)));
+        let background = px.mask.map(|m| PixelBits::zeros_of(w, h, m));
         let resolved = background
             .clone()
             .unwrap_or_else(|| PixelBits::none_set(w, h));
@@ -949,6 +982,37 @@ mod tests {
                     _ => 1,
                 };
                 proptest::prop_assert_eq!(bits.mask_class(&fp), expected);
+            }
+        }
+    }
+
+    proptest::proptest! {
+        /// A mask's bits are set exactly at its zero pixels, for any byte values (the
+        /// word-at-a-time test must not take a byte whose low bits carry for zero), and
+        /// pixels past the row's end stay unset.
+        #[test]
+        fn zeros_of_sets_exactly_the_zero_pixels(
+            width in 1usize..200,
+            height in 1usize..6,
+            values in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::strategy::Just(0u8),
+                    proptest::strategy::Just(1u8),
+                    proptest::strategy::Just(0x7f_u8),
+                    proptest::strategy::Just(0x80_u8),
+                    proptest::num::u8::ANY,
+                ],
+                1200,
+            ),
+        ) {
+            let values = &values[..width * height];
+            let bits = PixelBits::zeros_of(width, height, values);
+            for y in 0..height {
+                for x in 0..bits.words * 64 {
+                    let set = bits.bits[y * bits.words + x / 64] >> (x % 64) & 1 == 1;
+                    let zero = x < width && values[y * width + x] == 0;
+                    proptest::prop_assert_eq!(set, zero, "pixel ({}, {})", x, y);
+                }
             }
         }
     }
