@@ -192,7 +192,7 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
     let list = VoxelList {
         rows,
         row_of,
-        xs: voxels.iter().map(|v| v[0] as f32).collect(),
+        i: voxels.iter().map(|v| v[0]).collect(),
     };
     let seen = projectors
         .par_iter()
@@ -225,9 +225,9 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
 struct VoxelList {
     /// The rows `(j, k)` that hold listed voxels.
     rows: Vec<(usize, usize)>,
-    /// Per voxel: its row in `rows`, and its `i` (exact in f32 below 2^24).
+    /// Per voxel: its row in `rows`, and its `i`.
     row_of: Vec<usize>,
-    xs: Vec<f32>,
+    i: Vec<usize>,
 }
 
 /// One view's z-buffer over a list of voxels, its buffers kept from view to view.
@@ -262,18 +262,18 @@ impl ZBuffer {
         self.bases.clear();
         self.bases
             .extend(list.rows.iter().map(|&(j, k)| proj.row_base(grid, j, k)));
-        // `along_row`, then the footprints in a loop of their own, which vectorises.
-        let inc = proj.inc;
-        for (a, h) in self.h.iter_mut().enumerate() {
+        // The centres' projections first, then the footprints in a loop of their own, which
+        // vectorises.
+        for h in &mut self.h {
             h.clear();
-            h.extend(
-                list.row_of
-                    .iter()
-                    .zip(&list.xs)
-                    .map(|(&r, &i)| self.bases[r][a] + inc[a] * i),
-            );
         }
-        let count = list.xs.len();
+        for (&r, &i) in list.row_of.iter().zip(&list.i) {
+            let h = proj.along_row(&self.bases[r], i);
+            for (to, x) in self.h.iter_mut().zip(h) {
+                to.push(x);
+            }
+        }
+        let count = list.i.len();
         let (fps, depths) = (&mut self.footprints, &mut self.depths);
         fps.resize(count, Footprint::EMPTY);
         depths.resize(count, 0.0);

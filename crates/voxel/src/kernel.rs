@@ -160,7 +160,7 @@ pub(crate) struct Projector {
     /// `P = K [R | t]`, f64 for row bases.
     p: [[f64; 4]; 3],
     /// `P[:, 0] * voxel_size`: the step of the homogeneous projection along +x.
-    pub(crate) inc: [f32; 3],
+    inc: [f32; 3],
     /// Half the projected voxel edge at unit depth, pixels.
     half: f32,
     width: i32,
