@@ -118,7 +118,22 @@ pub fn voxel_coloring(
     let (bx, by) = (nx.div_ceil(BLOCK), ny.div_ceil(BLOCK));
     // Per view: the footprints the layer's kept voxels claim there.
     let mut claims: Vec<Vec<Footprint>> = vec![Vec::new(); n];
+    let mut bases = vec![[0f32; 3]; n * ny];
     for k in (0..nz).rev() {
+        // Every view's row bases of the layer, shared by its blocks.
+        bases
+            .par_chunks_mut(ny)
+            .zip(&projectors)
+            .for_each(|(rows, p)| {
+                for (j, b) in rows.iter_mut().enumerate() {
+                    *b = p.row_base(grid, j, k);
+                }
+            });
+        let layer = Layer {
+            k,
+            ny,
+            bases: &bases,
+        };
         // Decide the layer block by block, blocks in parallel, against the claims of the
         // layers above.
         let bits_ref = &bits;
@@ -134,7 +149,7 @@ pub fn voxel_coloring(
                         grid,
                         (i0, i1),
                         (j0, j1),
-                        k,
+                        &layer,
                         &projectors,
                         &pixels,
                         &centres,
@@ -393,12 +408,11 @@ impl BlockFootprints {
     /// on first use within the block.
     fn of(
         &mut self,
-        grid: &VoxelGrid,
         p: &Projector,
         v: usize,
         (i0, i1): (usize, usize),
         (j0, j1): (usize, usize),
-        k: usize,
+        layer: &Layer<'_>,
     ) -> &[Footprint] {
         let cells = BLOCK * BLOCK;
         let out = &mut self.footprints[v * cells..(v + 1) * cells];
@@ -406,15 +420,31 @@ impl BlockFootprints {
             self.projected[v] = true;
             let width = i1 - i0;
             for j in j0..j1 {
-                let base = p.row_base(grid, j, k);
-                p.footprints_along_row(&base, i0, &mut out[(j - j0) * width..(j - j0 + 1) * width]);
+                let base = layer.base(v, j);
+                p.footprints_along_row(base, i0, &mut out[(j - j0) * width..(j - j0 + 1) * width]);
             }
         }
         out
     }
 }
 
-/// Decides the voxels `[i0..i1) x [j0..j1)` of layer `k`.
+/// The layer being decided and every view's row bases in it.
+struct Layer<'a> {
+    k: usize,
+    ny: usize,
+    /// Per view, per row `j`: [`Projector::row_base`] of row `j` of layer `k`.
+    bases: &'a [[f32; 3]],
+}
+
+impl Layer<'_> {
+    /// The base of row `j` in view `v`.
+    #[inline]
+    fn base(&self, v: usize, j: usize) -> &[f32; 3] {
+        &self.bases[v * self.ny + j]
+    }
+}
+
+/// Decides the voxels `[i0..i1) x [j0..j1)` of a layer.
 ///
 /// Per view, the block's projected bounds against the view bits settle most questions
 /// for all its voxels at once, exactly: a view whose mask is background under the whole
@@ -428,7 +458,7 @@ fn decide_block(
     grid: &VoxelGrid,
     (i0, i1): (usize, usize),
     (j0, j1): (usize, usize),
-    k: usize,
+    layer: &Layer<'_>,
     projectors: &[Projector],
     pixels: &[Pixels<'_>],
     centres: &[Point3<f64>],
@@ -447,7 +477,7 @@ fn decide_block(
     scratch.active.clear();
     for (v, proj) in projectors.iter().enumerate() {
         let has_mask = pixels[v].mask.is_some();
-        match proj.block_bounds(grid, (i0, i1), (j0, j1), k) {
+        match proj.block_bounds(layer.base(v, j0), layer.base(v, j1 - 1), (i0, i1)) {
             // Every footprint is off this image: the view neither rejects nor sees.
             Ok(None) => {}
             Ok(Some(bound)) => {
@@ -484,7 +514,7 @@ fn decide_block(
     for &v in &silhouette {
         let fps = scratch
             .footprints
-            .of(grid, &projectors[v], v, (i0, i1), (j0, j1), k);
+            .of(&projectors[v], v, (i0, i1), (j0, j1), layer);
         for (x, fp) in fps[..size].iter().enumerate() {
             if scratch.alive[x] && !fp.is_empty() && bits[v].all_background(fp) {
                 scratch.alive[x] = false;
@@ -507,7 +537,7 @@ fn decide_block(
         }
         let fps = scratch
             .footprints
-            .of(grid, &projectors[v], v, (i0, i1), (j0, j1), k);
+            .of(&projectors[v], v, (i0, i1), (j0, j1), layer);
         for (x, fp) in fps[..size].iter().enumerate() {
             if !scratch.alive[x] {
                 continue;
@@ -538,7 +568,7 @@ fn decide_block(
         }
         out.tested += 1;
         let (i, j) = (i0 + x % width, j0 + x / width);
-        let voxel = grid.centre([i, j, k]);
+        let voxel = grid.centre([i, j, layer.k]);
         if let Some(c) = decide(
             &scratch.samples[x * n..x * n + count],
             centres,
@@ -546,7 +576,7 @@ fn decide_block(
             &params.criterion,
             &mut scratch.decide,
         ) {
-            out.kept.push(([i, j, k], c));
+            out.kept.push(([i, j, layer.k], c));
             // Every active view was asked about this voxel, so its footprints are known.
             for &v in &scratch.active {
                 let fp = scratch.footprints.footprints[v * BLOCK * BLOCK + x];

@@ -290,22 +290,31 @@ impl Projector {
         })
     }
 
-    /// A pixel rectangle holding the footprint of every voxel `[i0..i1) x [j0..j1)` of layer
-    /// `k` (from its corner centres, widened by a pixel against rounding): `Ok(None)` when
-    /// every footprint is off the image, `Err(())` when the bound is unknown (the block
-    /// reaches behind the camera).
+    /// A pixel rectangle holding the footprint of every voxel `i0..i1` of two rows of a
+    /// layer and of the rows between them, given the rows' bases (from the voxels' corner
+    /// centres, projected as the footprints are, widened by a pixel against rounding):
+    /// `Ok(None)` when every footprint is off the image, `Err(())` when the bound is unknown
+    /// (the block reaches behind the camera).
+    ///
+    /// Why the corners bound the block: over a rectangle of a plane, `u = x / w` and
+    /// `v = y / w` are ratios of affine functions with `w > 0`, whose extremes lie at
+    /// vertices, and `w` is smallest, so the footprint radius largest, at one too.
     pub(crate) fn block_bounds(
         &self,
-        grid: &VoxelGrid,
+        first_row: &[f32; 3],
+        last_row: &[f32; 3],
         (i0, i1): (usize, usize),
-        (j0, j1): (usize, usize),
-        k: usize,
     ) -> Result<Option<Footprint>, ()> {
-        let corners = [(i0, j0), (i1 - 1, j0), (i0, j1 - 1), (i1 - 1, j1 - 1)];
+        let corners = [
+            (first_row, i0),
+            (first_row, i1 - 1),
+            (last_row, i0),
+            (last_row, i1 - 1),
+        ];
         let (mut ulo, mut uhi, mut vlo, mut vhi) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
         let mut wmin = f32::MAX;
-        for (i, j) in corners {
-            let h = self.project_point(&grid.centre([i, j, k]));
+        for (base, i) in corners {
+            let h = self.along_row(base, i);
             if !(h[2] > 0.0) {
                 return Err(());
             }
@@ -316,8 +325,6 @@ impl Projector {
             vhi = vhi.max(v);
             wmin = wmin.min(h[2]);
         }
-        // The homogeneous w is affine over the block, so its minimum is at a corner, and the
-        // largest footprint radius is the one there.
         let r = self.half / wmin + 1.0;
         Ok(self.clip(
             round(ulo - r),
@@ -869,24 +876,7 @@ mod tests {
             pan in 0.0f64..360.0,
             focal in 20.0f64..2000.0,
         ) {
-            let grid = VoxelGrid::with_resolution(
-                aibr_camera::Aabb {
-                    min: Point3::new(-0.5, -0.5, 0.0),
-                    max: Point3::new(0.5, 0.5, 1.0),
-                },
-                19,
-            )
-            .map_err(|e| proptest::test_runner::TestCaseError::fail(e.to_string()))?;
-            let fail = |e: aibr_camera::Error| proptest::test_runner::TestCaseError::fail(e.to_string());
-            let ring = aibr_camera::CircularMotion::ring(radius, height, target).map_err(fail)?;
-            let camera = Camera::new(
-                aibr_camera::Intrinsics::new(focal, focal, 79.5, 59.5),
-                aibr_camera::Distortion::NONE,
-                ring.cam_from_world(Angle::from_degrees(pan)),
-                aibr_camera::ImageSize::new(160, 120),
-            )
-            .map_err(fail)?;
-            let p = Projector::new(&camera, &grid);
+            let (grid, p) = ring_projector(radius, height, target, pan, focal)?;
             let [nx, ny, nz] = grid.dims();
             let mut row = vec![Footprint::EMPTY; nx - 3];
             let (mut empty, mut seen) = (0, 0);
@@ -907,6 +897,80 @@ mod tests {
             }
             proptest::prop_assert!(empty + seen == (nx - 3) * ny * nz);
         }
+
+        /// A block's bound holds the footprint of every voxel of the block, in every layer,
+        /// whatever the camera: the fast kernel settles a whole block from it.
+        #[test]
+        fn block_bounds_hold_every_footprint_of_the_block(
+            radius in 0.05f64..3.0,
+            height in -1.0f64..3.0,
+            target in -0.5f64..1.5,
+            pan in 0.0f64..360.0,
+            focal in 20.0f64..2000.0,
+            (bi, bj) in (1usize..=8, 1usize..=8),
+            (oi, oj) in (0.0f64..1.0, 0.0f64..1.0),
+        ) {
+            let (grid, p) = ring_projector(radius, height, target, pan, focal)?;
+            let [nx, ny, nz] = grid.dims();
+            let i0 = ((nx - bi) as f64 * oi) as usize;
+            let j0 = ((ny - bj) as f64 * oj) as usize;
+            let (i1, j1) = (i0 + bi, j0 + bj);
+            for k in 0..nz {
+                let bound = p.block_bounds(
+                    &p.row_base(&grid, j0, k),
+                    &p.row_base(&grid, j1 - 1, k),
+                    (i0, i1),
+                );
+                let Ok(bound) = bound else { continue };
+                for j in j0..j1 {
+                    let base = p.row_base(&grid, j, k);
+                    for i in i0..i1 {
+                        let Some(fp) = p.footprint(p.along_row(&base, i)) else { continue };
+                        let inside = bound.is_some_and(|b| {
+                            b.u0 <= fp.u0 && fp.u1 <= b.u1 && b.v0 <= fp.v0 && fp.v1 <= b.v1
+                        });
+                        proptest::prop_assert!(
+                            inside,
+                            "voxel {:?}: {:?} outside {:?}",
+                            [i, j, k],
+                            fp,
+                            bound
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// A 19^3 grid over a 1 m box and a 160x120 camera on a ring about it, as the
+    /// projection proptests draw them; the camera may stand inside the grid.
+    fn ring_projector(
+        radius: f64,
+        height: f64,
+        target: f64,
+        pan: f64,
+        focal: f64,
+    ) -> Result<(VoxelGrid, Projector), proptest::test_runner::TestCaseError> {
+        let fail = |e: String| proptest::test_runner::TestCaseError::fail(e);
+        let grid = VoxelGrid::with_resolution(
+            aibr_camera::Aabb {
+                min: Point3::new(-0.5, -0.5, 0.0),
+                max: Point3::new(0.5, 0.5, 1.0),
+            },
+            19,
+        )
+        .map_err(|e| fail(e.to_string()))?;
+        let ring = aibr_camera::CircularMotion::ring(radius, height, target)
+            .map_err(|e| fail(e.to_string()))?;
+        let camera = Camera::new(
+            aibr_camera::Intrinsics::new(focal, focal, 79.5, 59.5),
+            aibr_camera::Distortion::NONE,
+            ring.cam_from_world(Angle::from_degrees(pan)),
+            aibr_camera::ImageSize::new(160, 120),
+        )
+        .map_err(|e| fail(e.to_string()))?;
+        let p = Projector::new(&camera, &grid);
+        Ok((grid, p))
     }
 
     /// A footprint inside a `width` x `height` image from four numbers in `[0, 1)`.
