@@ -189,30 +189,19 @@ pub fn voxel_coloring(
 /// Removes the voxels no view sees (see [`ColoringParams::visible_only`]).
 fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut KernelStats) {
     let grid = *model.grid();
-    let voxels: Vec<[usize; 3]> = model
-        .occupied
-        .indexed_iter()
-        .filter(|(_, o)| **o)
-        .map(|((k, j, i), _)| [i, j, k])
-        .collect();
-    // The voxels are listed row by row; each view projects each row's base once.
-    let mut rows: Vec<(usize, usize)> = Vec::new();
-    let mut row_of = Vec::with_capacity(voxels.len());
-    for &[_, j, k] in &voxels {
-        if rows.last() != Some(&(j, k)) {
-            rows.push((j, k));
-        }
-        row_of.push(rows.len() - 1);
-    }
-    let list = VoxelList {
-        rows,
-        row_of,
-        i: voxels.iter().map(|v| v[0]).collect(),
-    };
+    let list = VoxelList::new(
+        model
+            .occupied
+            .indexed_iter()
+            .filter(|(_, o)| **o)
+            .map(|((k, j, i), _)| [i, j, k])
+            .collect(),
+    );
+    let count = list.voxels.len();
     let seen = projectors
         .par_iter()
         .fold(
-            || (vec![false; voxels.len()], ZBuffer::default()),
+            || (vec![false; count], ZBuffer::default()),
             |(mut seen, mut z), proj| {
                 z.mark_seen(&grid, proj, &list, &mut seen);
                 (seen, z)
@@ -220,7 +209,7 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
         )
         .map(|(seen, _)| seen)
         .reduce(
-            || vec![false; voxels.len()],
+            || vec![false; count],
             |mut a, b| {
                 for (x, y) in a.iter_mut().zip(b) {
                     *x |= y;
@@ -228,7 +217,7 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
                 a
             },
         );
-    for (&v, &s) in voxels.iter().zip(&seen) {
+    for (&v, &s) in list.voxels.iter().zip(&seen) {
         if !s {
             model.clear(v);
             stats.kept -= 1;
@@ -236,13 +225,33 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
     }
 }
 
-/// Voxels listed row by row, as the z-buffers take them.
+/// Voxels listed row by row, as the z-buffers take them: each view projects each row's
+/// base once.
 struct VoxelList {
+    /// The voxels `[i, j, k]`, row by row.
+    voxels: Vec<[usize; 3]>,
     /// The rows `(j, k)` that hold listed voxels.
     rows: Vec<(usize, usize)>,
-    /// Per voxel: its row in `rows`, and its `i`.
+    /// Per voxel: its row in `rows`.
     row_of: Vec<usize>,
-    i: Vec<usize>,
+}
+
+impl VoxelList {
+    fn new(voxels: Vec<[usize; 3]>) -> Self {
+        let mut rows: Vec<(usize, usize)> = Vec::new();
+        let mut row_of = Vec::with_capacity(voxels.len());
+        for &[_, j, k] in &voxels {
+            if rows.last() != Some(&(j, k)) {
+                rows.push((j, k));
+            }
+            row_of.push(rows.len() - 1);
+        }
+        VoxelList {
+            voxels,
+            rows,
+            row_of,
+        }
+    }
 }
 
 /// One view's z-buffer over a list of voxels, its buffers kept from view to view.
@@ -250,11 +259,10 @@ struct VoxelList {
 struct ZBuffer {
     /// Per row of the list: its base in this view.
     bases: Vec<[f32; 3]>,
-    /// Per voxel: the homogeneous projection of its centre.
+    /// Per voxel: the homogeneous projection of its centre (`h[2]`, the depth).
     h: [Vec<f32>; 3],
-    /// Per voxel: its footprint and the depth (homogeneous w) of its centre.
+    /// Per voxel: its footprint.
     footprints: Vec<Footprint>,
-    depths: Vec<f32>,
     /// Per pixel of the footprints' bounding box, the nearest voxel as one key: the depth's
     /// bits (positive floats order as their bits do) above the voxel's index, so the
     /// smallest key is the nearest voxel and ties go to the lower index, the same in every
@@ -282,26 +290,21 @@ impl ZBuffer {
         for h in &mut self.h {
             h.clear();
         }
-        for (&r, &i) in list.row_of.iter().zip(&list.i) {
-            let h = proj.along_row(&self.bases[r], i);
+        for (&r, v) in list.row_of.iter().zip(&list.voxels) {
+            let h = proj.along_row(&self.bases[r], v[0]);
             for (to, x) in self.h.iter_mut().zip(h) {
                 to.push(x);
             }
         }
-        let count = list.i.len();
-        let (fps, depths) = (&mut self.footprints, &mut self.depths);
-        fps.resize(count, Footprint::EMPTY);
-        depths.resize(count, 0.0);
-        let [hx, hy, hz] = &self.h;
-        for ((((fp, d), &x), &y), &z) in fps
-            .iter_mut()
-            .zip(depths.iter_mut())
-            .zip(hx)
-            .zip(hy)
-            .zip(hz)
-        {
-            (*fp, *d) = proj.footprint_of(x, y, z);
-        }
+        let [hx, hy, depths] = &self.h;
+        let fps = &mut self.footprints;
+        fps.clear();
+        fps.extend(
+            hx.iter()
+                .zip(hy)
+                .zip(depths)
+                .map(|((&x, &y), &z)| proj.footprint_of(x, y, z)),
+        );
         // The z-buffer covers only the footprints' bounding box.
         let (mut u0, mut u1, mut v0, mut v1) = (u32::MAX, 0, u32::MAX, 0);
         for fp in fps.iter().filter(|fp| !fp.is_empty()) {

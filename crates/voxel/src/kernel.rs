@@ -249,14 +249,13 @@ impl Projector {
     #[inline]
     pub(crate) fn footprint_at(&self, base: &[f32; 3], i: f32) -> (Footprint, f32) {
         let [x, y, z] = [0, 1, 2].map(|a| base[a] + self.inc[a] * i);
-        self.footprint_of(x, y, z)
+        (self.footprint_of(x, y, z), z)
     }
 
-    /// The footprint of a voxel whose centre projects to the homogeneous point `(x, y, z)`,
-    /// and `z`: [`Projector::footprint`] with [`Footprint::EMPTY`] for `None`, without
-    /// branches.
+    /// The footprint of a voxel whose centre projects to the homogeneous point `(x, y, z)`:
+    /// [`Projector::footprint`] with [`Footprint::EMPTY`] for `None`, without branches.
     #[inline]
-    pub(crate) fn footprint_of(&self, x: f32, y: f32, z: f32) -> (Footprint, f32) {
+    pub(crate) fn footprint_of(&self, x: f32, y: f32, z: f32) -> Footprint {
         let inv = 1.0 / z;
         let (u, v, r) = (x * inv, y * inv, self.half * inv);
         // Clamped to the image, a footprint wholly off it comes out empty, as `clip` would
@@ -264,7 +263,7 @@ impl Projector {
         let (u0, u1) = (round(u - r).max(0), round(u + r).min(self.width - 1));
         let (v0, v1) = (round(v - r).max(0), round(v + r).min(self.height - 1));
         let empty = !(z > 0.0) || u0 > u1 || v0 > v1;
-        let fp = if empty {
+        if empty {
             Footprint::EMPTY
         } else {
             Footprint {
@@ -273,8 +272,7 @@ impl Projector {
                 v0: v0 as u32,
                 v1: v1 as u32,
             }
-        };
-        (fp, z)
+        }
     }
 
     #[inline]
