@@ -158,6 +158,7 @@ pub fn space_carving(
                             let mut out = Vec::new();
                             let mut samples = Vec::with_capacity(active.len());
                             let mut scratch = Vec::new();
+                            let mut azimuths = Vec::new();
                             for u in 0..n1 {
                                 let idx = index(u, w);
                                 if !occupied[[idx[2], idx[1], idx[0]]] {
@@ -175,6 +176,8 @@ pub fn space_carving(
                                     }
                                 }
                                 if samples.len() >= params.min_views {
+                                    azimuths.clear();
+                                    azimuths.resize(centres.len(), f64::NAN);
                                     out.push((
                                         u,
                                         decide(
@@ -183,6 +186,7 @@ pub fn space_carving(
                                             &x,
                                             &params.criterion,
                                             &mut scratch,
+                                            &mut azimuths,
                                         ),
                                     ));
                                 }

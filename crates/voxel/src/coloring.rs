@@ -119,6 +119,9 @@ pub fn voxel_coloring(
     // Per view: the footprints the layer's kept voxels claim there.
     let mut claims: Vec<Vec<Footprint>> = vec![Vec::new(); n];
     let mut bases = vec![[0f32; 3]; n * ny];
+    // Per block, per voxel column, per view: the view's azimuth from the column, computed
+    // when a voxel of the column is first decided (see `decide`).
+    let mut azimuths = vec![vec![f64::NAN; BLOCK * BLOCK * n]; bx * by];
     for k in (0..nz).rev() {
         // Every view's row bases of the layer, shared by its blocks.
         bases
@@ -137,12 +140,13 @@ pub fn voxel_coloring(
         // Decide the layer block by block, blocks in parallel, against the claims of the
         // layers above.
         let bits_ref = &bits;
-        let blocks: Vec<BlockResult> = (0..bx * by)
-            .into_par_iter()
+        let blocks: Vec<BlockResult> = azimuths
+            .par_iter_mut()
+            .enumerate()
             .with_min_len(8)
             .map_init(
                 || BlockScratch::new(n),
-                |scratch, b| {
+                |scratch, (b, azimuths)| {
                     let (i0, j0) = ((b % bx) * BLOCK, (b / bx) * BLOCK);
                     let (i1, j1) = ((i0 + BLOCK).min(nx), (j0 + BLOCK).min(ny));
                     decide_block(
@@ -156,6 +160,7 @@ pub fn voxel_coloring(
                         bits_ref,
                         params,
                         scratch,
+                        azimuths,
                     )
                 },
             )
@@ -468,6 +473,7 @@ fn decide_block(
     bits: &[ViewBits],
     params: &ColoringParams,
     scratch: &mut BlockScratch,
+    azimuths: &mut [f64],
 ) -> BlockResult {
     let size = (i1 - i0) * (j1 - j0);
     let mut out = BlockResult {
@@ -578,6 +584,7 @@ fn decide_block(
             &voxel,
             &params.criterion,
             &mut scratch.decide,
+            &mut azimuths[x * n..(x + 1) * n],
         ) {
             out.kept.push(([i, j, layer.k], c));
             // Every active view was asked about this voxel, so its footprints are known.
@@ -609,6 +616,7 @@ pub fn voxel_coloring_reference(
         ..KernelStats::default()
     };
     let mut scratch = Vec::new();
+    let mut azimuths = Vec::new();
     for k in (0..nz).rev() {
         let mut layer = Vec::new();
         for j in 0..ny {
@@ -637,7 +645,16 @@ pub fn voxel_coloring_reference(
                 }
                 stats.tested += 1;
                 let x = grid.centre([i, j, k]);
-                if let Some(c) = decide(&samples, &centres, &x, &params.criterion, &mut scratch) {
+                azimuths.clear();
+                azimuths.resize(n, f64::NAN);
+                if let Some(c) = decide(
+                    &samples,
+                    &centres,
+                    &x,
+                    &params.criterion,
+                    &mut scratch,
+                    &mut azimuths,
+                ) {
                     layer.push(([i, j, k], c));
                 }
             }

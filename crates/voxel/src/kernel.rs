@@ -681,12 +681,15 @@ fn rms_difference(a: &[f32; 3], b: &[f32; 3]) -> f32 {
 
 /// The colour of a consistent voxel (mean of its samples), or `None` when inconsistent.
 /// `samples` are in view order; `centres[v]` is the centre of camera `v`; `x` the voxel.
+/// `azimuths[v]` caches [`azimuth`] of view `v` seen from `x`'s column (NaN until first
+/// needed): it does not depend on the voxel's height, so one column's serve every layer.
 pub(crate) fn decide(
     samples: &[Sample],
     centres: &[Point3<f64>],
     x: &Point3<f64>,
     criterion: &Criterion,
     scratch: &mut Vec<Emission>,
+    azimuths: &mut [f64],
 ) -> Option<[u8; 3]> {
     let n = samples.len();
     if n == 0 {
@@ -713,10 +716,17 @@ pub(crate) fn decide(
             (var / (3 * n) as f32).sqrt() <= threshold
         }
         Criterion::Angular { threshold, window } => {
-            angular_difference(samples, centres, x, window, scratch) <= threshold
+            angular_difference(samples, centres, x, window, scratch, azimuths) <= threshold
         }
     };
     ok.then(|| mean.map(|m| m.round().clamp(0.0, 255.0) as u8))
+}
+
+/// The azimuth about the pan axis of the direction from `x` to `centre`, radians in
+/// `[-pi, pi]`: a function of `x`'s column alone.
+#[inline]
+pub(crate) fn azimuth(centre: &Point3<f64>, x: &Point3<f64>) -> f64 {
+    (centre.y - x.y).atan2(centre.x - x.x)
 }
 
 /// One sample's ray as the angular criterion sees it, with its running comparison.
@@ -749,16 +759,21 @@ fn angular_difference(
     x: &Point3<f64>,
     window: Angle,
     scratch: &mut Vec<Emission>,
+    azimuths: &mut [f64],
 ) -> f32 {
     let n = samples.len();
     // Sorted by azimuth, neighbours within the window are contiguous (a superset filter:
     // elevation only adds angle).
     scratch.clear();
     for (sample, s) in samples.iter().enumerate() {
-        let dir = (centres[s.view] - x).normalize();
+        let centre = &centres[s.view];
+        let azimuth = &mut azimuths[s.view];
+        if azimuth.is_nan() {
+            *azimuth = self::azimuth(centre, x);
+        }
         scratch.push(Emission {
-            azimuth: dir.y.atan2(dir.x),
-            dir,
+            azimuth: *azimuth,
+            dir: (centre - x).normalize(),
             sample,
             sum: 0.0,
             count: 0,
@@ -1110,9 +1125,9 @@ mod tests {
         let x = Point3::origin();
         let mut scratch = Vec::new();
         let (c, s) = ring(&uniform);
-        let sparse = angular_difference(&s, &c, &x, window, &mut scratch);
+        let sparse = angular_difference(&s, &c, &x, window, &mut scratch, &mut [f64::NAN; 64]);
         let (c, s) = ring(&crowded);
-        let dense = angular_difference(&s, &c, &x, window, &mut scratch);
+        let dense = angular_difference(&s, &c, &x, window, &mut scratch, &mut [f64::NAN; 64]);
         // Neighbours 10, 20 and 30 degrees apart differ by 10, 20 and 30 levels: 20 on
         // average for a view with three on each side (less near the ends).
         assert!((sparse - 20.0).abs() < 1.0, "uniform ring: {sparse}");
@@ -1141,13 +1156,23 @@ mod tests {
             .collect();
         let x = Point3::origin();
         let mut scratch = Vec::new();
+        let mut judge = |samples: &[Sample], criterion: &Criterion| {
+            decide(
+                samples,
+                &centres,
+                &x,
+                criterion,
+                &mut scratch,
+                &mut [f64::NAN; 8],
+            )
+        };
         let angular = Criterion::Angular {
             threshold: 15.0,
             window: Angle::from_degrees(50.0),
         };
-        assert!(decide(&samples, &centres, &x, &angular, &mut scratch).is_some());
+        assert!(judge(&samples, &angular).is_some());
         let classic = Criterion::Classic { threshold: 15.0 };
-        assert!(decide(&samples, &centres, &x, &classic, &mut scratch).is_none());
+        assert!(judge(&samples, &classic).is_none());
         // Neighbours that disagree fail the angular test too.
         let noisy: Vec<Sample> = (0..8)
             .map(|i| Sample {
@@ -1155,6 +1180,6 @@ mod tests {
                 colour: [if i % 2 == 0 { 30.0 } else { 200.0 }, 80.0, 60.0],
             })
             .collect();
-        assert!(decide(&noisy, &centres, &x, &angular, &mut scratch).is_none());
+        assert!(judge(&noisy, &angular).is_none());
     }
 }
