@@ -35,7 +35,8 @@ pub enum Criterion {
     },
     /// The paper's non-Lambertian criterion: rays from one surface point need agree only
     /// where their emission angles are close. Each view's mean RMS colour difference to the
-    /// views whose directions from the voxel are within `window` of its own, averaged over
+    /// views within `window` of its own (both in azimuth about the pan axis, the grid
+    /// frame's z, and in direction from the voxel), averaged over
     /// the views weighted by the arc of directions each stands for, is at most `threshold`
     /// (so the test does not depend on how densely the views sample the arc). With no pair
     /// within the window, the mean over all pairs is compared.
@@ -744,7 +745,7 @@ pub(crate) struct Emission {
 }
 
 /// The angular criterion's measure of a voxel: how much its colour changes between views
-/// whose directions from it are within `window`, in grey levels.
+/// within `window` of each other (in azimuth and in direction from it), in grey levels.
 ///
 /// Each view's mean difference to its neighbours within the window, weighted by the arc of
 /// emission angles the view stands for (half the azimuth gaps to its neighbours, each capped
@@ -762,8 +763,11 @@ fn angular_difference(
     azimuths: &mut [f64],
 ) -> f32 {
     let n = samples.len();
-    // Sorted by azimuth, neighbours within the window are contiguous (a superset filter:
-    // elevation only adds angle).
+    // A neighbour is within the window both in azimuth about the pan axis and in direction.
+    // Sorted by azimuth, the views within the window in azimuth are contiguous. For views
+    // at one elevation `e` the azimuth is the stricter test (directions `d` apart in
+    // azimuth are `acos(cos^2 e cos d + sin^2 e) < d` apart), so the direction test drops
+    // only pairs whose elevations differ much.
     scratch.clear();
     for (sample, s) in samples.iter().enumerate() {
         let centre = &centres[s.view];
