@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::coloring::{KernelStats, Reconstruction};
 use crate::error::Result;
 use crate::grid::{VoxelGrid, VoxelModel};
-use crate::kernel::{Criterion, Pixels, Projector, Sample, View, claim, decide, prepare_views};
+use crate::kernel::{Criterion, Judge, Pixels, Projector, Sample, View, claim, prepare_views};
 
 /// Parameters of [`space_carving`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -157,8 +157,7 @@ pub fn space_carving(
                         .map(|w| {
                             let mut out = Vec::new();
                             let mut samples = Vec::with_capacity(active.len());
-                            let mut scratch = Vec::new();
-                            let mut azimuths = Vec::new();
+                            let mut judge = Judge::default();
                             for u in 0..n1 {
                                 let idx = index(u, w);
                                 if !occupied[[idx[2], idx[1], idx[0]]] {
@@ -176,19 +175,9 @@ pub fn space_carving(
                                     }
                                 }
                                 if samples.len() >= params.min_views {
-                                    azimuths.clear();
-                                    azimuths.resize(centres.len(), f64::NAN);
-                                    out.push((
-                                        u,
-                                        decide(
-                                            &samples,
-                                            &centres,
-                                            &x,
-                                            &params.criterion,
-                                            &mut scratch,
-                                            &mut azimuths,
-                                        ),
-                                    ));
+                                    let verdict =
+                                        judge.decide(&samples, &centres, &x, &params.criterion);
+                                    out.push((u, verdict));
                                 }
                             }
                             out

@@ -6,7 +6,8 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
 use crate::kernel::{
-    Criterion, Footprint, Pixels, Projector, Sample, View, ViewBits, claim, decide, prepare_views,
+    Criterion, Footprint, Judge, Pixels, Projector, Sample, View, ViewBits, claim, decide,
+    prepare_views,
 };
 
 /// Parameters of [`voxel_coloring`] and [`voxel_coloring_reference`].
@@ -615,8 +616,7 @@ pub fn voxel_coloring_reference(
         voxels: grid.len(),
         ..KernelStats::default()
     };
-    let mut scratch = Vec::new();
-    let mut azimuths = Vec::new();
+    let mut judge = Judge::default();
     for k in (0..nz).rev() {
         let mut layer = Vec::new();
         for j in 0..ny {
@@ -645,16 +645,7 @@ pub fn voxel_coloring_reference(
                 }
                 stats.tested += 1;
                 let x = grid.centre([i, j, k]);
-                azimuths.clear();
-                azimuths.resize(n, f64::NAN);
-                if let Some(c) = decide(
-                    &samples,
-                    &centres,
-                    &x,
-                    &params.criterion,
-                    &mut scratch,
-                    &mut azimuths,
-                ) {
+                if let Some(c) = judge.decide(&samples, &centres, &x, &params.criterion) {
                     layer.push(([i, j, k], c));
                 }
             }

@@ -723,6 +723,36 @@ pub(crate) fn decide(
     ok.then(|| mean.map(|m| m.round().clamp(0.0, 255.0) as u8))
 }
 
+/// [`decide`] for voxels taken one at a time (the reference and space carving), with no
+/// column's azimuths to reuse, and its buffers.
+#[derive(Debug, Default)]
+pub(crate) struct Judge {
+    emissions: Vec<Emission>,
+    azimuths: Vec<f64>,
+}
+
+impl Judge {
+    /// [`decide`] of a voxel at `x` with these samples.
+    pub(crate) fn decide(
+        &mut self,
+        samples: &[Sample],
+        centres: &[Point3<f64>],
+        x: &Point3<f64>,
+        criterion: &Criterion,
+    ) -> Option<[u8; 3]> {
+        self.azimuths.clear();
+        self.azimuths.resize(centres.len(), f64::NAN);
+        decide(
+            samples,
+            centres,
+            x,
+            criterion,
+            &mut self.emissions,
+            &mut self.azimuths,
+        )
+    }
+}
+
 /// The azimuth about the pan axis of the direction from `x` to `centre`, radians in
 /// `[-pi, pi]`: a function of `x`'s column alone.
 #[inline]
@@ -1159,24 +1189,14 @@ mod tests {
             })
             .collect();
         let x = Point3::origin();
-        let mut scratch = Vec::new();
-        let mut judge = |samples: &[Sample], criterion: &Criterion| {
-            decide(
-                samples,
-                &centres,
-                &x,
-                criterion,
-                &mut scratch,
-                &mut [f64::NAN; 8],
-            )
-        };
+        let mut judge = Judge::default();
         let angular = Criterion::Angular {
             threshold: 15.0,
             window: Angle::from_degrees(50.0),
         };
-        assert!(judge(&samples, &angular).is_some());
+        assert!(judge.decide(&samples, &centres, &x, &angular).is_some());
         let classic = Criterion::Classic { threshold: 15.0 };
-        assert!(judge(&samples, &classic).is_none());
+        assert!(judge.decide(&samples, &centres, &x, &classic).is_none());
         // Neighbours that disagree fail the angular test too.
         let noisy: Vec<Sample> = (0..8)
             .map(|i| Sample {
@@ -1184,6 +1204,6 @@ mod tests {
                 colour: [if i % 2 == 0 { 30.0 } else { 200.0 }, 80.0, 60.0],
             })
             .collect();
-        assert!(judge(&noisy, &angular).is_none());
+        assert!(judge.decide(&noisy, &centres, &x, &angular).is_none());
     }
 }
