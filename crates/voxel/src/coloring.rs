@@ -121,8 +121,9 @@ pub fn voxel_coloring(
     let mut claims: Vec<Vec<Footprint>> = vec![Vec::new(); n];
     let mut bases = vec![[0f32; 3]; n * ny];
     // Per block, per voxel column, per view: the view's azimuth from the column, computed
-    // when a voxel of the column is first decided (see `decide`).
-    let mut azimuths = vec![vec![f64::NAN; BLOCK * BLOCK * n]; bx * by];
+    // when a voxel of the column is first decided (see `decide`); a block's are allocated
+    // when it first decides a voxel, which most blocks never do.
+    let mut azimuths = vec![Vec::new(); bx * by];
     for k in (0..nz).rev() {
         // Every view's row bases of the layer, shared by its blocks.
         bases
@@ -474,7 +475,7 @@ fn decide_block(
     bits: &[ViewBits],
     params: &ColoringParams,
     scratch: &mut BlockScratch,
-    azimuths: &mut [f64],
+    azimuths: &mut Vec<f64>,
 ) -> BlockResult {
     let size = (i1 - i0) * (j1 - j0);
     let mut out = BlockResult {
@@ -577,6 +578,9 @@ fn decide_block(
             continue;
         }
         out.tested += 1;
+        if azimuths.is_empty() {
+            azimuths.resize(BLOCK * BLOCK * n, f64::NAN);
+        }
         let (i, j) = (i0 + x % width, j0 + x / width);
         let voxel = grid.centre([i, j, layer.k]);
         if let Some(c) = decide(

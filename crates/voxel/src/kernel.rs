@@ -36,10 +36,10 @@ pub enum Criterion {
     /// The paper's non-Lambertian criterion: rays from one surface point need agree only
     /// where their emission angles are close. Each view's mean RMS colour difference to the
     /// views within `window` of its own (both in azimuth about the pan axis, the grid
-    /// frame's z, and in direction from the voxel), averaged over
-    /// the views weighted by the arc of directions each stands for, is at most `threshold`
-    /// (so the test does not depend on how densely the views sample the arc). With no pair
-    /// within the window, the mean over all pairs is compared.
+    /// frame's z, and in direction from the voxel), averaged over the views weighted by the
+    /// arc of directions each stands for, is at most `threshold` (so the test does not
+    /// depend on how densely the views sample the arc). With no pair within the window, the
+    /// mean over all pairs is compared.
     Angular {
         /// Largest mean RMS difference of neighbouring views, grey levels.
         threshold: f32,
