@@ -46,6 +46,7 @@ impl EvalRig for SimRig {
         let calibration = self.calibration()?;
         let range = self.range();
         let step = step.radians();
+        let taken = captured_within(step);
         let mut out = Vec::new();
         let mut a = range.min().radians();
         while a <= range.max().radians() + 1e-9 {
@@ -53,7 +54,7 @@ impl EvalRig for SimRig {
             a += step;
             if !captured
                 .iter()
-                .any(|p| (p.radians() - pan.radians()).abs() < 0.5 * step)
+                .any(|p| (p.radians() - pan.radians()).abs() < taken)
             {
                 out.push((pan, calibration.camera_at(pan)));
             }
@@ -65,6 +66,17 @@ impl EvalRig for SimRig {
         let truth = self.scene().render(camera, &RenderOptions::default())?;
         Ok((truth.rgb8(), truth.mask))
     }
+}
+
+/// How close to a captured view an angle of the evaluation grid counts as captured, radians:
+/// half the grid's step, but never more than half a degree.
+///
+/// Half a step alone would make a coarse grid biased: at 5 degrees, every grid angle within 2.5
+/// degrees of a capture would be skipped, so a strategy that clusters its views (active capture
+/// on a mirror, 2-4 degrees apart) would have most of that region, where it renders worst,
+/// left out of its mean, and uniform capture would not.
+fn captured_within(step: f64) -> f64 {
+    (0.5 * step).min(0.5f64.to_radians())
 }
 
 impl EvalRig for ReplayRig {
@@ -112,7 +124,7 @@ pub struct EvalParams {
     /// Voxels along the longest edge of the models the novel views are rendered from.
     pub grid: usize,
     /// Spacing of the evaluated pan angles (1 degree by default); angles within half a step
-    /// of a captured view are skipped (they were captured).
+    /// (at most half a degree) of a captured view are skipped (they were captured).
     pub step: Angle,
 }
 
@@ -387,4 +399,50 @@ fn measure<R: EvalRig>(
         worst_arc: worst.1,
         novel,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The grid angles a synthetic rig measures, in whole degrees.
+    fn novel_degrees(captured: &[f64], step: f64) -> Result<Vec<i64>> {
+        let rig = SimRig::new("lambertian")?;
+        let captured: Vec<Angle> = captured.iter().map(|&d| Angle::from_degrees(d)).collect();
+        Ok(rig
+            .novel_views(&captured, Angle::from_degrees(step))?
+            .iter()
+            .map(|(p, _)| p.degrees().round() as i64)
+            .collect())
+    }
+
+    #[test]
+    fn only_grid_angles_next_to_a_capture_count_as_captured() -> Result<()> {
+        let range = SimRig::new("lambertian")?.range();
+        let (lo, hi) = (range.min().degrees(), range.max().degrees());
+        // A 5-degree grid from the range's start; a capture on one of its angles and two
+        // between others, 1 and 2 degrees from their nearest grid angle.
+        let on = lo + 5.0 * 30.0;
+        let grid: Vec<i64> = (0..)
+            .map(|k| lo + 5.0 * f64::from(k))
+            .take_while(|a| *a <= hi + 1e-9)
+            .map(|a| a.round() as i64)
+            .collect();
+        let novel = novel_degrees(&[on, on + 6.0, on + 12.0], 5.0)?;
+        let expected: Vec<i64> = grid
+            .iter()
+            .copied()
+            .filter(|&a| a != on.round() as i64)
+            .collect();
+        // Half a 5-degree step would also have skipped the grid angles 1 and 2 degrees from
+        // the other two captures.
+        assert_eq!(novel, expected);
+        // On a 1-degree grid, half a step: the grid angle 0.4 degrees from a capture is
+        // skipped, the one 0.6 degrees away is not.
+        let novel = novel_degrees(&[lo + 10.4], 1.0)?;
+        let ten = (lo + 10.0).round() as i64;
+        assert!(!novel.contains(&ten) && novel.contains(&(ten + 1)));
+        assert_eq!(novel.len(), (hi - lo).round() as usize);
+        Ok(())
+    }
 }

@@ -505,7 +505,9 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
 <p>{initial} uniform views first, then one view at a time up to {max}: <b>active</b> splits the
 arc the consistency estimate ranks worst, <b>uniform</b> spreads every view evenly. Each
 checkpoint renders every uncaptured pan angle (every {step:.0}°) from a {grid}<sup>3</sup> model
-and compares it with the ground truth inside the object mask. <i>Mean PSNR</i> averages the
+and compares it with the ground truth inside the object mask (a coarse grid, to keep the demo
+short: <code>aibr eval --rig sim:{scene}</code> measures every degree, and its means differ by
+a few tenths of a decibel). <i>Mean PSNR</i> averages the
 novel views' PSNRs; <i>pooled PSNR</i> is the PSNR of their mean squared error, where the views
 that render worst (on a mirror, say) weigh the most. Made by <code>aibr demo</code> in
 {elapsed:.0} s.</p>
