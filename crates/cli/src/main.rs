@@ -237,7 +237,8 @@ struct EvalArgs {
     /// Voxels along the longest edge while capturing.
     #[arg(long, default_value_t = 96)]
     capture_grid: usize,
-    /// Spacing of the evaluated pan angles, degrees.
+    /// Spacing of the evaluated pan angles, degrees (an angle within half a step, and within
+    /// half a degree, of a captured view counts as captured and is skipped).
     #[arg(long, default_value_t = 1.0)]
     step_deg: f64,
     /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
