@@ -61,17 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut model = voxel_coloring(&grid, &views, &coloring)?.model;
             if std::env::var("TRUEMODEL").is_ok() {
                 // Diagnostic: the true scene voxelised (centre inside an object).
-                model = aibr_voxel::VoxelModel::empty(grid);
-                let [nx, ny, nz] = grid.dims();
-                for k in 0..nz {
-                    for j in 0..ny {
-                        for i in 0..nx {
-                            if scene.inside(&grid.centre([i, j, k]), 0.0) {
-                                model.set([i, j, k], [128; 3]);
-                            }
-                        }
-                    }
-                }
+                model = aibr_voxel::VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0));
             }
             let sources = shots
                 .iter()

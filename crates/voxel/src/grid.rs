@@ -3,6 +3,7 @@
 use aibr_camera::Aabb;
 use nalgebra::{Point3, Vector3};
 use ndarray::Array3;
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
@@ -177,6 +178,39 @@ impl VoxelModel {
         }
     }
 
+    /// A model occupied (grey) at every voxel whose centre `inside` accepts: the voxelisation
+    /// of a solid given by a point test, such as a synthetic scene's true geometry
+    /// (`|p| scene.inside(p, 0.0)`), to render from or to measure a reconstruction against.
+    /// Layers are filled in parallel.
+    pub fn from_centres(grid: VoxelGrid, inside: impl Fn(&Point3<f64>) -> bool + Sync) -> Self {
+        let [nx, ny, _] = grid.dims;
+        let mut occupied = Array3::from_elem(grid.shape(), false);
+        let fill = |k: usize, layer: &mut [bool]| {
+            for (n, o) in layer.iter_mut().enumerate() {
+                *o = inside(&grid.centre([n % nx, n / nx, k]));
+            }
+        };
+        // A fresh array is in standard layout, so its layers are contiguous slices of `nx * ny`.
+        match occupied.as_slice_mut() {
+            Some(cells) => cells
+                .par_chunks_mut((nx * ny).max(1))
+                .enumerate()
+                .for_each(|(k, layer)| fill(k, layer)),
+            None => {
+                for ((k, j, i), o) in occupied.indexed_iter_mut() {
+                    *o = inside(&grid.centre([i, j, k]));
+                }
+            }
+        }
+        // As `empty` and `set` would leave it: grey where occupied, black elsewhere.
+        let colour = occupied.map(|&o| if o { [128; 3] } else { [0; 3] });
+        VoxelModel {
+            grid,
+            occupied,
+            colour,
+        }
+    }
+
     /// The grid.
     pub fn grid(&self) -> &VoxelGrid {
         &self.grid
@@ -273,6 +307,40 @@ mod tests {
         assert!(VoxelGrid::new(unit_box(), 0.0).is_err());
         assert!(VoxelGrid::new(unit_box(), f64::NAN).is_err());
         assert!(VoxelGrid::with_resolution(unit_box(), 0).is_err());
+    }
+
+    #[test]
+    fn voxelised_ball_is_the_voxels_whose_centres_it_holds() -> Result<()> {
+        let g = VoxelGrid::with_resolution(unit_box(), 20)?;
+        let centre = Point3::new(0.1, -0.05, 0.45);
+        let ball = |p: &Point3<f64>| (p - centre).norm() < 0.3;
+        let m = VoxelModel::from_centres(g, ball);
+        let [nx, ny, nz] = g.dims();
+        let mut count = 0;
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    assert_eq!(m.is_occupied([i, j, k]), ball(&g.centre([i, j, k])));
+                    count += usize::from(ball(&g.centre([i, j, k])));
+                }
+            }
+        }
+        assert_eq!(m.occupied_count(), count);
+        // The same model as filling an empty one voxel by voxel.
+        let mut by_hand = VoxelModel::empty(g);
+        for ((k, j, i), _) in m.occupied.indexed_iter() {
+            if ball(&g.centre([i, j, k])) {
+                by_hand.set([i, j, k], [128; 3]);
+            }
+        }
+        assert_eq!(m, by_hand);
+        // About the ball's volume, in voxels of 0.05 m.
+        let expected = 4.0 / 3.0 * std::f64::consts::PI * 0.3f64.powi(3) / 0.05f64.powi(3);
+        assert!(
+            (count as f64 - expected).abs() < 0.05 * expected,
+            "{count} vs {expected}"
+        );
+        Ok(())
     }
 
     #[test]
