@@ -231,7 +231,7 @@ pub fn estimate_volume(views: &[LoadedView], search: &Aabb, margin_m: f64) -> Re
 }
 
 /// The views with their masks, as the voxel kernels take them.
-fn voxel_views<'a>(views: &'a [LoadedView], masks: &'a [GrayImage]) -> Vec<View<'a>> {
+pub(crate) fn voxel_views<'a>(views: &'a [LoadedView], masks: &'a [GrayImage]) -> Vec<View<'a>> {
     views
         .iter()
         .zip(masks)

@@ -8,11 +8,11 @@ use std::path::Path;
 
 use aibr_camera::{Angle, Camera};
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
-use aibr_scene::RenderOptions;
-use aibr_voxel::Criterion;
+use aibr_scene::{RenderOptions, Scene};
+use aibr_voxel::{Criterion, VoxelGrid, VoxelModel, visual_hull};
 use image::{GrayImage, RgbImage};
 
-use crate::capture::{CaptureParams, Strategy, capture, reconstruct_views};
+use crate::capture::{CaptureParams, Strategy, capture, reconstruct_views, voxel_views};
 use crate::error::{Error, Result};
 use crate::replay::ReplayRig;
 use crate::rig::{Calibration, FrameSource, SimRig, Turntable};
@@ -31,6 +31,11 @@ pub trait EvalRig: Turntable + FrameSource + Sized {
     fn novel_views(&self, captured: &[Angle], step: Angle) -> Result<Vec<(Angle, Camera)>>;
     /// The true image and object mask of a novel view.
     fn truth(&self, pan: Angle, camera: &Camera) -> Result<(RgbImage, GrayImage)>;
+    /// The true geometry, where the rig knows it (a synthetic scene), for
+    /// [`EvalModel::Truth`]; `None` by default.
+    fn true_geometry(&self) -> Option<&Scene> {
+        None
+    }
 }
 
 impl EvalRig for SimRig {
@@ -65,6 +70,10 @@ impl EvalRig for SimRig {
     fn truth(&self, _pan: Angle, camera: &Camera) -> Result<(RgbImage, GrayImage)> {
         let truth = self.scene().render(camera, &RenderOptions::default())?;
         Ok((truth.rgb8(), truth.mask))
+    }
+
+    fn true_geometry(&self) -> Option<&Scene> {
+        Some(self.scene())
     }
 }
 
@@ -114,6 +123,36 @@ impl EvalRig for ReplayRig {
     }
 }
 
+/// The geometry the novel views of an evaluation are rendered from.
+///
+/// The capture does not depend on it (the loop always plans from its own reconstructions),
+/// so evaluations that differ only here measure the same views, and what the geometry costs
+/// can be told apart from what the choice of views does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EvalModel {
+    /// The voxel model reconstructed from the views (voxel coloring, or space carving where
+    /// the cameras are not all above the volume): the system as it runs.
+    #[default]
+    Reconstructed,
+    /// The visual hull of the views' object masks: geometry from silhouettes alone.
+    VisualHull,
+    /// The rig's true geometry voxelised on the same grid ([`EvalRig::true_geometry`];
+    /// synthetic rigs only): a diagnostic, what the renderer and the choice of views give
+    /// with perfect geometry.
+    Truth,
+}
+
+impl EvalModel {
+    /// Its name on the command line and in reports: `reconstructed`, `hull`, `truth`.
+    pub fn name(self) -> &'static str {
+        match self {
+            EvalModel::Reconstructed => "reconstructed",
+            EvalModel::VisualHull => "hull",
+            EvalModel::Truth => "truth",
+        }
+    }
+}
+
 /// Parameters of [`evaluate`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct EvalParams {
@@ -126,6 +165,8 @@ pub struct EvalParams {
     /// Spacing of the evaluated pan angles (1 degree by default); angles within half a step
     /// (at most half a degree) of a captured view are skipped (they were captured).
     pub step: Angle,
+    /// The geometry the novel views are rendered from (default: the reconstruction).
+    pub model: EvalModel,
 }
 
 /// The measurement of one set of views.
@@ -227,6 +268,15 @@ pub fn evaluate_rig<R: EvalRig>(
         return Err(Error::InvalidParameter {
             name: "step",
             reason: "the evaluation step must be positive".into(),
+        });
+    }
+    if params.model == EvalModel::Truth && rig.true_geometry().is_none() {
+        return Err(Error::InvalidParameter {
+            name: "model",
+            reason: format!(
+                "the rig {spec} does not know its true geometry (only synthetic rigs do): \
+                 render from the reconstruction or the visual hull"
+            ),
         });
     }
     let mut out = Vec::new();
@@ -337,13 +387,31 @@ fn measure<R: EvalRig>(
             ))
         })
         .collect::<Result<_>>()?;
-    let (rec, _) = reconstruct_views(
-        views,
-        &masks,
-        &session.volume()?,
-        params.grid,
-        Criterion::default(),
-    )?;
+    let model = match params.model {
+        EvalModel::Reconstructed => {
+            reconstruct_views(
+                views,
+                &masks,
+                &session.volume()?,
+                params.grid,
+                Criterion::default(),
+            )?
+            .0
+            .model
+        }
+        EvalModel::VisualHull => {
+            let grid = VoxelGrid::with_resolution(session.volume()?, params.grid)?;
+            visual_hull(&grid, &voxel_views(views, &masks))?
+        }
+        EvalModel::Truth => {
+            let grid = VoxelGrid::with_resolution(session.volume()?, params.grid)?;
+            let scene = rig.true_geometry().ok_or(Error::InvalidParameter {
+                name: "model",
+                reason: "the rig does not know its true geometry".into(),
+            })?;
+            VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0))
+        }
+    };
     let sources = views
         .iter()
         .map(|v| SourceView {
@@ -351,7 +419,7 @@ fn measure<R: EvalRig>(
             image: v.image.clone(),
         })
         .collect();
-    let renderer = Renderer::new(&rec.model, sources, RenderParams::default())?;
+    let renderer = Renderer::new(&model, sources, RenderParams::default())?;
     let mut pans: Vec<Angle> = views
         .iter()
         .map(|v| Angle::from_radians(v.record.pan_rad))

@@ -55,7 +55,9 @@ pub use capture::{
     renderer_for, renderer_with, uniform_pans,
 };
 pub use error::{Error, Result};
-pub use eval::{Checkpoint, EvalParams, EvalRig, NovelView, StrategyEval, evaluate, evaluate_rig};
+pub use eval::{
+    Checkpoint, EvalModel, EvalParams, EvalRig, NovelView, StrategyEval, evaluate, evaluate_rig,
+};
 pub use ptu_rig::PtuTurntable;
 pub use replay::ReplayRig;
 pub use rig::{Calibration, Frame, FrameSource, Rig, SceneCamera, SimRig, Turntable, ptu46_step};

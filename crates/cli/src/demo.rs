@@ -7,7 +7,9 @@ use std::time::Instant;
 
 use aibr::camera::Angle;
 use aibr::voxel::{Criterion, PlyOptions, write_ply};
-use aibr::{CaptureParams, Checkpoint, EvalParams, Session, SimRig, Strategy, StrategyEval};
+use aibr::{
+    CaptureParams, Checkpoint, EvalModel, EvalParams, Session, SimRig, Strategy, StrategyEval,
+};
 use anyhow::{Context, Result, bail};
 use image::{Rgb, RgbImage};
 use plotters::prelude::*;
@@ -44,6 +46,7 @@ fn setup(quick: bool) -> Setup {
                 checkpoints: vec![6, 9, 12],
                 grid: 48,
                 step: Angle::from_degrees(8.0),
+                model: EvalModel::Reconstructed,
             },
             model_grid: 48,
         }
@@ -54,6 +57,7 @@ fn setup(quick: bool) -> Setup {
                 checkpoints: vec![12, 24, 36, 48],
                 grid: 96,
                 step: Angle::from_degrees(5.0),
+                model: EvalModel::Reconstructed,
             },
             model_grid: 96,
         }

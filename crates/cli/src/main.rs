@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use aibr::camera::Angle;
 use aibr::voxel::{Criterion, PlyOptions, write_ply};
-use aibr::{CaptureParams, Progress, Session, SimRig, Strategy, write_atomic};
+use aibr::{CaptureParams, EvalModel, Progress, Session, SimRig, Strategy, write_atomic};
 use anyhow::{Context, Result, bail};
 
 mod calibrate;
@@ -241,6 +241,12 @@ struct EvalArgs {
     /// half a degree, of a captured view counts as captured and is skipped).
     #[arg(long, default_value_t = 1.0)]
     step_deg: f64,
+    /// The geometry the novel views are rendered from: the reconstruction (the system as it
+    /// runs), the visual hull of the object masks, or the true geometry (synthetic rigs
+    /// only). The capture is the same whichever it is, so comparing them on one --work
+    /// folder tells what the geometry costs apart from what the choice of views does.
+    #[arg(long, value_enum, default_value = "reconstructed")]
+    model: ModelArg,
     /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
     #[arg(long, default_value = "aibr-eval")]
     work: PathBuf,
@@ -255,6 +261,16 @@ enum StrategyArg {
     Active,
     /// The baseline: every view spread uniformly.
     Uniform,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum ModelArg {
+    /// The voxel model reconstructed from the views.
+    Reconstructed,
+    /// The visual hull of the views' object masks.
+    Hull,
+    /// The true geometry, voxelised (synthetic rigs only): a diagnostic.
+    Truth,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -913,8 +929,13 @@ fn eval(a: EvalArgs) -> Result<()> {
         checkpoints,
         grid: a.grid,
         step: Angle::from_degrees(a.step_deg),
+        model: match a.model {
+            ModelArg::Reconstructed => EvalModel::Reconstructed,
+            ModelArg::Hull => EvalModel::VisualHull,
+            ModelArg::Truth => EvalModel::Truth,
+        },
     };
-    std::fs::create_dir_all(&a.work).with_context(|| format!("creating {}", a.work.display()))?;
+    // No folder is made here: the sessions make theirs, so a refused evaluation leaves none.
     let bar = ProgressBar::new_spinner();
     let mut progress = |m: String| bar.set_message(m);
     let results = match &on {
@@ -964,7 +985,11 @@ fn eval(a: EvalArgs) -> Result<()> {
             .collect();
         println!(
             "{}",
-            serde_json::to_string_pretty(&serde_json::json!({"rig": a.rig, "results": json}))?
+            serde_json::to_string_pretty(&serde_json::json!({
+                "rig": a.rig,
+                "model": params.model.name(),
+                "results": json,
+            }))?
         );
     } else {
         print_eval_table(&results);
