@@ -682,21 +682,30 @@ fn eval_replays_a_real_ring() -> TestResult {
             }
         }
     }
+    let refused = |args: &[&str], work: &Path, why: &str| -> TestResult {
+        let out = aibr()
+            .args(["eval", "--rig", &rig])
+            .args(args)
+            .arg("--work")
+            .arg(work)
+            .output()?;
+        assert!(!out.status.success());
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(why),
+            "{}",
+            text(&out)
+        );
+        Ok(())
+    };
     // A budget that holds nothing out is refused.
-    let out = aibr()
-        .args(["eval", "--rig", &rig, "--max", "60", "--work"])
-        .arg(&work)
-        .output()?;
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("must leave some out"));
+    refused(&["--max", "60"], &work, "must leave some out")?;
     // A real ring has no true geometry to render from: refused before anything is captured.
     let untouched = temp("eval-replay-truth");
-    let out = aibr()
-        .args(["eval", "--rig", &rig, "--model", "truth", "--work"])
-        .arg(&untouched)
-        .output()?;
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("does not know its true geometry"));
+    refused(
+        &["--model", "truth"],
+        &untouched,
+        "does not know its true geometry",
+    )?;
     assert!(!untouched.exists());
     let _ = std::fs::remove_dir_all(&work);
     Ok(())
