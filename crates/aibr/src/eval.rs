@@ -270,15 +270,19 @@ pub fn evaluate_rig<R: EvalRig>(
             reason: "the evaluation step must be positive".into(),
         });
     }
-    if params.model == EvalModel::Truth && rig.true_geometry().is_none() {
-        return Err(Error::InvalidParameter {
-            name: "model",
-            reason: format!(
-                "the rig {spec} does not know its true geometry (only synthetic rigs do): \
-                 render from the reconstruction or the visual hull"
-            ),
-        });
-    }
+    let geometry = match params.model {
+        EvalModel::Reconstructed => Geometry::Reconstructed,
+        EvalModel::VisualHull => Geometry::VisualHull,
+        EvalModel::Truth => {
+            Geometry::Truth(rig.true_geometry().ok_or_else(|| Error::InvalidParameter {
+                name: "model",
+                reason: format!(
+                    "the rig {spec} does not know its true geometry (only synthetic rigs do): \
+                     render from the reconstruction or the visual hull"
+                ),
+            })?)
+        }
+    };
     let mut out = Vec::new();
     // Ground truth per evaluated pan angle, rendered (or read) once for every checkpoint
     // of every strategy: most angles recur.
@@ -323,7 +327,7 @@ pub fn evaluate_rig<R: EvalRig>(
                 "{} {n} views: rendering novel views",
                 strategy.name()
             ));
-            checkpoints.push(measure(rig, views, session, params, &mut truths)?);
+            checkpoints.push(measure(rig, views, session, params, geometry, &mut truths)?);
         }
         out.push(StrategyEval {
             strategy,
@@ -372,11 +376,20 @@ fn run<R: EvalRig>(
 /// Ground-truth image and object mask per pan angle (its radians' bits).
 type TruthCache = HashMap<u64, (RgbImage, GrayImage)>;
 
+/// [`EvalModel`] resolved against the rig: what each checkpoint renders from.
+#[derive(Clone, Copy)]
+enum Geometry<'a> {
+    Reconstructed,
+    VisualHull,
+    Truth(&'a Scene),
+}
+
 fn measure<R: EvalRig>(
     rig: &R,
     views: &[LoadedView],
     session: &Session,
     params: &EvalParams,
+    geometry: Geometry<'_>,
     truths: &mut TruthCache,
 ) -> Result<Checkpoint> {
     let masks: Vec<_> = views
@@ -387,8 +400,8 @@ fn measure<R: EvalRig>(
             ))
         })
         .collect::<Result<_>>()?;
-    let model = match params.model {
-        EvalModel::Reconstructed => {
+    let model = match geometry {
+        Geometry::Reconstructed => {
             reconstruct_views(
                 views,
                 &masks,
@@ -399,16 +412,12 @@ fn measure<R: EvalRig>(
             .0
             .model
         }
-        EvalModel::VisualHull => {
+        Geometry::VisualHull => {
             let grid = VoxelGrid::with_resolution(session.volume()?, params.grid)?;
             visual_hull(&grid, &voxel_views(views, &masks))?
         }
-        EvalModel::Truth => {
+        Geometry::Truth(scene) => {
             let grid = VoxelGrid::with_resolution(session.volume()?, params.grid)?;
-            let scene = rig.true_geometry().ok_or(Error::InvalidParameter {
-                name: "model",
-                reason: "the rig does not know its true geometry".into(),
-            })?;
             VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0))
         }
     };

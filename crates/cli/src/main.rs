@@ -263,7 +263,7 @@ enum StrategyArg {
     Uniform,
 }
 
-#[derive(Clone, Copy, PartialEq, ValueEnum)]
+#[derive(Clone, Copy, ValueEnum)]
 enum ModelArg {
     /// The voxel model reconstructed from the views.
     Reconstructed,

@@ -3,7 +3,6 @@
 use aibr_camera::Aabb;
 use nalgebra::{Point3, Vector3};
 use ndarray::Array3;
-use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
@@ -181,27 +180,9 @@ impl VoxelModel {
     /// A model occupied (grey) at every voxel whose centre `inside` accepts: the voxelisation
     /// of a solid given by a point test, such as a synthetic scene's true geometry
     /// (`|p| scene.inside(p, 0.0)`), to render from or to measure a reconstruction against.
-    /// Layers are filled in parallel.
-    pub fn from_centres(grid: VoxelGrid, inside: impl Fn(&Point3<f64>) -> bool + Sync) -> Self {
-        let [nx, ny, _] = grid.dims;
-        let mut occupied = Array3::from_elem(grid.shape(), false);
-        let fill = |k: usize, layer: &mut [bool]| {
-            for (n, o) in layer.iter_mut().enumerate() {
-                *o = inside(&grid.centre([n % nx, n / nx, k]));
-            }
-        };
-        // A fresh array is in standard layout, so its layers are contiguous slices of `nx * ny`.
-        match occupied.as_slice_mut() {
-            Some(cells) => cells
-                .par_chunks_mut((nx * ny).max(1))
-                .enumerate()
-                .for_each(|(k, layer)| fill(k, layer)),
-            None => {
-                for ((k, j, i), o) in occupied.indexed_iter_mut() {
-                    *o = inside(&grid.centre([i, j, k]));
-                }
-            }
-        }
+    pub fn from_centres(grid: VoxelGrid, inside: impl Fn(&Point3<f64>) -> bool) -> Self {
+        let occupied =
+            Array3::from_shape_fn(grid.shape(), |(k, j, i)| inside(&grid.centre([i, j, k])));
         // As `empty` and `set` would leave it: grey where occupied, black elsewhere.
         let colour = occupied.map(|&o| if o { [128; 3] } else { [0; 3] });
         VoxelModel {
