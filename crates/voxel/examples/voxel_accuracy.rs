@@ -2,7 +2,9 @@
 //!
 //! `cargo run --release -p aibr-voxel --example voxel_accuracy -- [RESOLUTION] [VIEWS] [SCENE...]`
 //! (defaults: 128, 48, every catalogue scene). Views are spread uniformly over the pan range;
-//! the ground-truth masks are used as silhouettes.
+//! the ground-truth masks are used as silhouettes. Environment variables change the
+//! defaults: `THRESH` and `WINDOW` (the angular criterion), `CTHRESH` (the classic one),
+//! `MINV` (`min_views`) and `BEHIND_HULL` (a cosine, or `off` to ask every view).
 
 use aibr_scene::{RenderOptions, catalogue};
 use aibr_voxel::metrics::geometry_score;
@@ -67,6 +69,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 criterion,
                 ..ColoringParams::default()
             };
+            match std::env::var("BEHIND_HULL").as_deref() {
+                Ok("off") => params.behind_hull = None,
+                Ok(c) => params.behind_hull = Some(c.parse()?),
+                Err(_) => {}
+            }
             if let Some(m) = env("MINV") {
                 params.min_views = m as usize;
             }

@@ -51,7 +51,11 @@ pub fn visual_hull(grid: &VoxelGrid, views: &[View<'_>]) -> Result<VoxelModel> {
 }
 
 /// Clears the voxels of `model` outside the visual hull; returns how many.
-fn carve_hull(model: &mut VoxelModel, projectors: &[Projector], pixels: &[Pixels<'_>]) -> usize {
+pub(crate) fn carve_hull(
+    model: &mut VoxelModel,
+    projectors: &[Projector],
+    pixels: &[Pixels<'_>],
+) -> usize {
     let grid = *model.grid();
     let [nx, ny, nz] = grid.dims();
     let hull: Vec<Vec<bool>> = (0..nz)

@@ -3,8 +3,10 @@
 use nalgebra::Point3;
 use rayon::prelude::*;
 
+use crate::carving::carve_hull;
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
+use crate::hull::{Hull, any_mask, behind};
 use crate::kernel::{
     Criterion, Footprint, Judge, Pixels, Projector, Sample, View, ViewBits, claim, decide,
     prepare_views,
@@ -24,6 +26,13 @@ pub struct ColoringParams {
     /// hide each other; walls then come out a few voxels thick, and this removes the hidden
     /// part.
     pub visible_only: bool,
+    /// Views behind the visual hull (default `Some(-0.3)`; needs masks). A voxel on the
+    /// boundary of the masks' visual hull is not judged by a view whose direction from it
+    /// makes a cosine below this with the hull's outward normal: that view looks at it
+    /// through the hull, so its pixels there show another surface, or, through a hole
+    /// already carved, the object's far side, which would make a true voxel look
+    /// inconsistent. `None` asks every view, as Seitz and Dyer do. See `docs/voxel.md`.
+    pub behind_hull: Option<f64>,
 }
 
 impl Default for ColoringParams {
@@ -32,6 +41,7 @@ impl Default for ColoringParams {
             criterion: Criterion::default(),
             min_views: 3,
             visible_only: true,
+            behind_hull: Some(-0.3),
         }
     }
 }
@@ -84,6 +94,15 @@ fn prepare<'a>(
     views: &[View<'a>],
     params: &ColoringParams,
 ) -> Result<Prepared<'a>> {
+    if let Some(cosine) = params.behind_hull {
+        if !(-1.0..=1.0).contains(&cosine) {
+            return Err(Error::InvalidParameter {
+                name: "behind_hull",
+                value: cosine,
+                reason: "a cosine must lie in [-1, 1]",
+            });
+        }
+    }
     let (projectors, pixels) = prepare_views(grid, views, params.min_views.max(1))?;
     check_cameras_above(grid, views)?;
     let centres = projectors.iter().map(|p| p.centre).collect();
@@ -101,7 +120,8 @@ fn prepare<'a>(
 /// [`voxel_coloring_reference`].
 ///
 /// Errors: too few views, image or mask sizes that differ from their camera, distorted
-/// cameras, or a camera not above the grid ([`Error::CameraNotAbove`]).
+/// cameras, a camera not above the grid ([`Error::CameraNotAbove`]), or a
+/// [`ColoringParams::behind_hull`] outside `[-1, 1]`.
 pub fn voxel_coloring(
     grid: &VoxelGrid,
     views: &[View<'_>],
@@ -111,6 +131,10 @@ pub fn voxel_coloring(
     let n = views.len();
     let [nx, ny, nz] = grid.dims();
     let mut bits: Vec<ViewBits> = pixels.par_iter().map(ViewBits::new).collect();
+    let hull = params
+        .behind_hull
+        .filter(|_| any_mask(&pixels))
+        .map(|cosine| (Hull::culled(grid, &projectors, &bits, BLOCK), cosine));
     let mut model = VoxelModel::empty(*grid);
     let mut stats = KernelStats {
         voxels: grid.len(),
@@ -160,6 +184,7 @@ pub fn voxel_coloring(
                         &pixels,
                         &centres,
                         bits_ref,
+                        hull.as_ref(),
                         params,
                         scratch,
                         azimuths,
@@ -378,6 +403,9 @@ struct BlockScratch {
     samples: Vec<Sample>,
     counts: Vec<usize>,
     decide: Vec<crate::kernel::Emission>,
+    /// Per voxel of the block, with [`ColoringParams::behind_hull`]: its hull normal and
+    /// its centre, once it has met an open view.
+    normals: Vec<Option<([i32; 3], Point3<f64>)>>,
 }
 
 impl BlockScratch {
@@ -400,6 +428,7 @@ impl BlockScratch {
             ],
             counts: vec![0; cells],
             decide: Vec::with_capacity(n),
+            normals: vec![None; cells],
         }
     }
 }
@@ -473,6 +502,7 @@ fn decide_block(
     pixels: &[Pixels<'_>],
     centres: &[Point3<f64>],
     bits: &[ViewBits],
+    hull: Option<&(Hull, f64)>,
     params: &ColoringParams,
     scratch: &mut BlockScratch,
     azimuths: &mut Vec<f64>,
@@ -486,8 +516,17 @@ fn decide_block(
     };
     scratch.silhouette.clear();
     scratch.active.clear();
+    // With the visual hull at hand, it is the silhouette constraint, voxel by voxel.
+    let inside =
+        hull.map(|(hull, _)| hull.block(layer.k, (i0, i1), (j0, j1), &mut scratch.alive[..size]));
+    if let Some(inside) = inside {
+        out.rejected = size - inside;
+        if inside == 0 {
+            return out;
+        }
+    }
     for (v, proj) in projectors.iter().enumerate() {
-        let has_mask = pixels[v].mask.is_some();
+        let has_mask = inside.is_none() && pixels[v].mask.is_some();
         match proj.block_bounds(layer.base(v, j0), layer.base(v, j1 - 1), (i0, i1)) {
             // Every footprint is off this image: the view neither rejects nor sees.
             Ok(None) => {}
@@ -519,8 +558,13 @@ fn decide_block(
         return out;
     }
     scratch.footprints.projected.fill(false);
-    scratch.alive[..size].fill(true);
-    let mut alive = size;
+    let mut alive = match inside {
+        Some(inside) => inside,
+        None => {
+            scratch.alive[..size].fill(true);
+            size
+        }
+    };
     let silhouette = std::mem::take(&mut scratch.silhouette);
     for &v in &silhouette {
         let fps = scratch
@@ -539,6 +583,10 @@ fn decide_block(
     scratch.silhouette = silhouette;
     out.rejected = size - alive;
     scratch.counts[..size].fill(0);
+    let width = i1 - i0;
+    if hull.is_some() {
+        scratch.normals[..size].fill(None);
+    }
     let active = std::mem::take(&mut scratch.active);
     let m = active.len();
     let n = projectors.len();
@@ -563,6 +611,16 @@ fn decide_block(
             if fp.is_empty() || bits[v].all_resolved(fp) {
                 continue;
             }
+            if let Some((hull, cosine)) = hull {
+                // The voxel's hull normal, on its first open view.
+                let (normal, centre) = *scratch.normals[x].get_or_insert_with(|| {
+                    let idx = [i0 + x % width, j0 + x / width, layer.k];
+                    (hull.normal(idx), grid.centre(idx))
+                });
+                if behind(normal, &centres[v], &centre, *cosine) {
+                    continue;
+                }
+            }
             let (sum, c) = bits[v].gather(&pixels[v], fp);
             if c > 0 {
                 scratch.samples[x * n + count] = Sample::new(v, sum, c);
@@ -571,7 +629,6 @@ fn decide_block(
         }
     }
     scratch.active = active;
-    let width = i1 - i0;
     for x in 0..size {
         let count = scratch.counts[x];
         if !scratch.alive[x] || count < params.min_views {
@@ -621,6 +678,14 @@ pub fn voxel_coloring_reference(
         ..KernelStats::default()
     };
     let mut judge = Judge::default();
+    let hull = params
+        .behind_hull
+        .filter(|_| any_mask(&pixels))
+        .map(|cosine| {
+            let mut model = VoxelModel::full(*grid);
+            carve_hull(&mut model, &projectors, &pixels);
+            (Hull::of_model(&model), cosine)
+        });
     for k in (0..nz).rev() {
         let mut layer = Vec::new();
         for j in 0..ny {
@@ -635,8 +700,15 @@ pub fn voxel_coloring_reference(
                     stats.silhouette_rejected += 1;
                     continue;
                 }
+                let x = grid.centre([i, j, k]);
+                let normal = hull.as_ref().map(|(h, _)| h.normal([i, j, k]));
                 let mut samples = Vec::new();
                 for v in 0..n {
+                    if let (Some(normal), Some((_, cosine))) = (normal, &hull) {
+                        if behind(normal, &centres[v], &x, *cosine) {
+                            continue;
+                        }
+                    }
                     if let Some(fp) = project(v) {
                         let (sum, count) = pixels[v].gather(&fp, &claimed[v]);
                         if count > 0 {
@@ -648,7 +720,6 @@ pub fn voxel_coloring_reference(
                     continue;
                 }
                 stats.tested += 1;
-                let x = grid.centre([i, j, k]);
                 if let Some(c) = judge.decide(&samples, &centres, &x, &params.criterion) {
                     layer.push(([i, j, k], c));
                 }

@@ -304,15 +304,41 @@ impl Projector {
         last_row: &[f32; 3],
         (i0, i1): (usize, usize),
     ) -> Result<Option<Footprint>, ()> {
-        let corners = [
+        self.corners_bound(&[
             (first_row, i0),
             (first_row, i1 - 1),
             (last_row, i0),
             (last_row, i1 - 1),
-        ];
+        ])
+    }
+
+    /// [`Projector::block_bounds`] of a box of voxels over several layers, given the first
+    /// and last row bases of its top and bottom layers: over a box, as over a rectangle, the
+    /// extremes lie at its corners.
+    pub(crate) fn brick_bounds(
+        &self,
+        top: (&[f32; 3], &[f32; 3]),
+        bottom: (&[f32; 3], &[f32; 3]),
+        (i0, i1): (usize, usize),
+    ) -> Result<Option<Footprint>, ()> {
+        self.corners_bound(&[
+            (top.0, i0),
+            (top.0, i1 - 1),
+            (top.1, i0),
+            (top.1, i1 - 1),
+            (bottom.0, i0),
+            (bottom.0, i1 - 1),
+            (bottom.1, i0),
+            (bottom.1, i1 - 1),
+        ])
+    }
+
+    /// The pixel rectangle holding the footprints of the voxels `(row base, i)` and of every
+    /// voxel of the box they are the corners of.
+    fn corners_bound(&self, corners: &[(&[f32; 3], usize)]) -> Result<Option<Footprint>, ()> {
         let (mut ulo, mut uhi, mut vlo, mut vhi) = (f32::MAX, f32::MIN, f32::MAX, f32::MIN);
         let mut wmin = f32::MAX;
-        for (base, i) in corners {
+        for &(base, i) in corners {
             let h = self.along_row(base, i);
             if !(h[2] > 0.0) {
                 return Err(());
@@ -331,6 +357,15 @@ impl Projector {
             round(vlo - r),
             round(vhi + r),
         ))
+    }
+
+    /// Whether `fp` reaches the image's edge (where a clipped footprint or bound ends).
+    #[inline]
+    pub(crate) fn touches_edge(&self, fp: &Footprint) -> bool {
+        fp.u0 == 0
+            || fp.v0 == 0
+            || fp.u1 as i32 >= self.width - 1
+            || fp.v1 as i32 >= self.height - 1
     }
 }
 
@@ -973,6 +1008,52 @@ mod tests {
                     let base = p.row_base(&grid, j, k);
                     for i in i0..i1 {
                         let Some(fp) = p.footprint(p.along_row(&base, i)) else { continue };
+                        let inside = bound.is_some_and(|b| {
+                            b.u0 <= fp.u0 && fp.u1 <= b.u1 && b.v0 <= fp.v0 && fp.v1 <= b.v1
+                        });
+                        proptest::prop_assert!(
+                            inside,
+                            "voxel {:?}: {:?} outside {:?}",
+                            [i, j, k],
+                            fp,
+                            bound
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        #[test]
+        fn brick_bounds_hold_every_footprint_of_the_brick(
+            radius in 0.05f64..3.0,
+            height in -1.0f64..3.0,
+            target in -0.5f64..1.5,
+            pan in 0.0f64..360.0,
+            focal in 20.0f64..2000.0,
+            (bi, bj, bk) in (1usize..=8, 1usize..=8, 1usize..=8),
+            (oi, oj, ok) in (0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0),
+        ) {
+            let (grid, p) = ring_projector(radius, height, target, pan, focal)?;
+            let [nx, ny, nz] = grid.dims();
+            let i0 = ((nx - bi) as f64 * oi) as usize;
+            let j0 = ((ny - bj) as f64 * oj) as usize;
+            let k0 = ((nz - bk) as f64 * ok) as usize;
+            let (i1, j1, k1) = (i0 + bi, j0 + bj, k0 + bk);
+            let base = |j: usize, k: usize| p.row_base(&grid, j, k);
+            let bound = p.brick_bounds(
+                (&base(j0, k1 - 1), &base(j1 - 1, k1 - 1)),
+                (&base(j0, k0), &base(j1 - 1, k0)),
+                (i0, i1),
+            );
+            let Ok(bound) = bound else { return Ok(()) };
+            for k in k0..k1 {
+                for j in j0..j1 {
+                    let b = base(j, k);
+                    for i in i0..i1 {
+                        let Some(fp) = p.footprint(p.along_row(&b, i)) else { continue };
                         let inside = bound.is_some_and(|b| {
                             b.u0 <= fp.u0 && fp.u1 <= b.u1 && b.v0 <= fp.v0 && fp.v1 <= b.v1
                         });

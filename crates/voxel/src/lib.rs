@@ -50,6 +50,7 @@ pub mod coloring;
 pub mod error;
 pub mod foreground;
 pub mod grid;
+mod hull;
 pub mod kernel;
 pub mod metrics;
 pub mod ply;
