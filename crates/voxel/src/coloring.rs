@@ -533,7 +533,9 @@ fn decide_block(
             Ok(Some(bound)) => {
                 if has_mask {
                     match bits[v].mask_class(&bound) {
-                        0 => {
+                        // (A bound cut by the image's edge may hide voxels whose footprints
+                        // are wholly off the image: those this view does not reject.)
+                        0 if !proj.touches_edge(&bound) => {
                             out.rejected = size;
                             return out;
                         }

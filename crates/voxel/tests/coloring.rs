@@ -92,6 +92,38 @@ fn fast_path_equals_the_reference_voxel_for_voxel() -> TestResult {
     Ok(())
 }
 
+/// A camera zoomed in so far that the object leaves every image: the blocks and bricks whose
+/// bounds the image's edge cuts hold voxels a view does not see at all, which that view must
+/// neither reject nor judge.
+#[test]
+fn fast_path_equals_the_reference_where_the_object_leaves_the_images() -> TestResult {
+    let mut scene = catalogue::lambertian()?;
+    scene.rig.intrinsics.fx *= 2.5;
+    scene.rig.intrinsics.fy *= 2.5;
+    let cap = capture(&scene, 8)?;
+    let grid = VoxelGrid::with_resolution(scene.bounds(), 48)?;
+    let b = scene.object_bounds();
+    let off = cap.cameras.iter().all(|c| {
+        [b.min, b.max]
+            .iter()
+            .any(|p| c.project(p).is_none_or(|q| !c.size.contains(q)))
+    });
+    assert!(off, "the object must leave every image");
+    for behind_hull in [Some(-0.3), None] {
+        let params = ColoringParams {
+            behind_hull,
+            ..ColoringParams::default()
+        };
+        let fast = voxel_coloring(&grid, &cap.views(true), &params)?;
+        let reference = voxel_coloring_reference(&grid, &cap.views(true), &params)?;
+        assert!(fast.model.occupied_count() > 100, "{behind_hull:?}");
+        assert!(fast.model == reference.model, "{behind_hull:?}");
+        assert_eq!(fast.stats.tested, reference.stats.tested, "{behind_hull:?}");
+        assert_eq!(fast.stats.kept, reference.stats.kept, "{behind_hull:?}");
+    }
+    Ok(())
+}
+
 /// `mirror`'s box: voxel coloring carves the mirror, and the views that look through the hole
 /// at the box's other faces from inside then tear those faces too, unless the views behind the
 /// visual hull are left out (`ColoringParams::behind_hull`; docs/voxel.md).
