@@ -5,8 +5,10 @@
 //!   ([`VoxelModel::raycast`]), depth maps and visibility for any camera;
 //! - [`voxel_coloring`] (Seitz and Dyer 1997, as the paper uses it): one top-down plane
 //!   sweep, with the classic or the paper's non-Lambertian [`Criterion`], an optional
-//!   silhouette constraint, parallel within each layer and identical at any thread count to
-//!   its scalar reference [`voxel_coloring_reference`];
+//!   silhouette constraint (and with it, views that see a voxel of the visual hull's
+//!   boundary from behind it left out: [`ColoringParams::behind_hull`]), parallel within
+//!   each layer and identical at any thread count to its scalar reference
+//!   [`voxel_coloring_reference`];
 //! - [`space_carving`] (Kutulakos and Seitz), multi-sweep, for rigs whose cameras are not all
 //!   above the object;
 //! - [`foreground`] masks from a dark background, [`metrics`] against ground truth, and
