@@ -1004,22 +1004,7 @@ mod tests {
                     (i0, i1),
                 );
                 let Ok(bound) = bound else { continue };
-                for j in j0..j1 {
-                    let base = p.row_base(&grid, j, k);
-                    for i in i0..i1 {
-                        let Some(fp) = p.footprint(p.along_row(&base, i)) else { continue };
-                        let inside = bound.is_some_and(|b| {
-                            b.u0 <= fp.u0 && fp.u1 <= b.u1 && b.v0 <= fp.v0 && fp.v1 <= b.v1
-                        });
-                        proptest::prop_assert!(
-                            inside,
-                            "voxel {:?}: {:?} outside {:?}",
-                            [i, j, k],
-                            fp,
-                            bound
-                        );
-                    }
-                }
+                bound_holds(&grid, &p, bound, [(i0, i1), (j0, j1), (k, k + 1)])?;
             }
         }
     }
@@ -1049,25 +1034,39 @@ mod tests {
                 (i0, i1),
             );
             let Ok(bound) = bound else { return Ok(()) };
-            for k in k0..k1 {
-                for j in j0..j1 {
-                    let b = base(j, k);
-                    for i in i0..i1 {
-                        let Some(fp) = p.footprint(p.along_row(&b, i)) else { continue };
-                        let inside = bound.is_some_and(|b| {
-                            b.u0 <= fp.u0 && fp.u1 <= b.u1 && b.v0 <= fp.v0 && fp.v1 <= b.v1
-                        });
-                        proptest::prop_assert!(
-                            inside,
-                            "voxel {:?}: {:?} outside {:?}",
-                            [i, j, k],
-                            fp,
-                            bound
-                        );
-                    }
+            bound_holds(&grid, &p, bound, [(i0, i1), (j0, j1), (k0, k1)])?;
+        }
+    }
+
+    /// Every footprint of the voxels `i.0..i.1` x `j.0..j.1` x `k.0..k.1` lies within
+    /// `bound` (and a voxel with a footprint has a bound).
+    fn bound_holds(
+        grid: &VoxelGrid,
+        p: &Projector,
+        bound: Option<Footprint>,
+        [(i0, i1), (j0, j1), (k0, k1)]: [(usize, usize); 3],
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        for k in k0..k1 {
+            for j in j0..j1 {
+                let base = p.row_base(grid, j, k);
+                for i in i0..i1 {
+                    let Some(fp) = p.footprint(p.along_row(&base, i)) else {
+                        continue;
+                    };
+                    let inside = bound.is_some_and(|b| {
+                        b.u0 <= fp.u0 && fp.u1 <= b.u1 && b.v0 <= fp.v0 && fp.v1 <= b.v1
+                    });
+                    proptest::prop_assert!(
+                        inside,
+                        "voxel {:?}: {:?} outside {:?}",
+                        [i, j, k],
+                        fp,
+                        bound
+                    );
                 }
             }
         }
+        Ok(())
     }
 
     /// A 19^3 grid over a 1 m box and a 160x120 camera on a ring about it, as the
