@@ -487,11 +487,13 @@ impl Layer<'_> {
 ///
 /// Per view, the block's projected bounds against the view bits settle most questions
 /// for all its voxels at once, exactly: a view whose mask is background under the whole
-/// bound rejects the block; one that is foreground under it rejects none of its voxels; one
-/// that is claimed under it sees none of them. The views left open are then asked one at a
-/// time for every voxel of the block still in question (so each view's pixels under the
-/// block are read while in cache): first the silhouette views, then the active ones in view
-/// order, with the same arithmetic as the reference.
+/// bound (not cut by the image's edge) rejects the block; one that is foreground under it
+/// rejects none of its voxels; one that is claimed under it sees none of them. With a
+/// `hull`, the hull's flags stand in for the masks. The views left open are then asked one
+/// at a time for every voxel of the block still in question (so each view's pixels under
+/// the block are read while in cache): first the silhouette views, then the active ones in
+/// view order (leaving out, with a `hull`, those behind it), with the same arithmetic as the
+/// reference.
 #[allow(clippy::too_many_arguments)]
 fn decide_block(
     grid: &VoxelGrid,
