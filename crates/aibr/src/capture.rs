@@ -8,7 +8,7 @@ use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop,
 use aibr_consistency::{ConsistencyParams, PairScore, TurntableLimits, plan_next, score_pairs};
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_voxel::{
-    CarvingParams, ColoringParams, Criterion, Reconstruction, View, VoxelGrid, check_cameras_above,
+    CarvingParams, ColoringParams, Reconstruction, View, VoxelGrid, check_cameras_above,
     space_carving, voxel_coloring,
 };
 use image::GrayImage;
@@ -264,23 +264,20 @@ fn masks_of(views: &[LoadedView]) -> Result<Vec<GrayImage>> {
         .collect()
 }
 
-/// Reconstructs a model from loaded views: voxel coloring where every camera is above the
-/// volume, space carving otherwise. Returns the reconstruction and the algorithm's name.
+/// Reconstructs a model from loaded views: voxel coloring with `coloring` where every camera
+/// is above the volume, space carving otherwise. Returns the reconstruction and the
+/// algorithm's name.
 pub fn reconstruct_views(
     views: &[LoadedView],
     masks: &[GrayImage],
     volume: &Aabb,
     grid: usize,
-    criterion: Criterion,
+    coloring: &ColoringParams,
 ) -> Result<(Reconstruction, &'static str)> {
     let grid = VoxelGrid::with_resolution(*volume, grid)?;
     let vs = voxel_views(views, masks);
     if check_cameras_above(&grid, &vs).is_ok() {
-        let params = ColoringParams {
-            criterion,
-            ..ColoringParams::default()
-        };
-        Ok((voxel_coloring(&grid, &vs, &params)?, "voxel coloring"))
+        Ok((voxel_coloring(&grid, &vs, coloring)?, "voxel coloring"))
     } else {
         Ok((
             space_carving(&grid, &vs, &CarvingParams::default())?,
@@ -293,9 +290,9 @@ pub fn reconstruct_views(
 pub fn reconstruct(
     session: &Session,
     grid: usize,
-    criterion: Criterion,
+    coloring: &ColoringParams,
 ) -> Result<(Reconstruction, &'static str)> {
-    reconstruct_loaded(session, &session.load_views()?, grid, criterion)
+    reconstruct_loaded(session, &session.load_views()?, grid, coloring)
 }
 
 /// [`reconstruct`] with the session's views already loaded.
@@ -303,10 +300,10 @@ pub fn reconstruct_loaded(
     session: &Session,
     views: &[LoadedView],
     grid: usize,
-    criterion: Criterion,
+    coloring: &ColoringParams,
 ) -> Result<(Reconstruction, &'static str)> {
     let masks = masks_of(views)?;
-    reconstruct_views(views, &masks, &session.volume()?, grid, criterion)
+    reconstruct_views(views, &masks, &session.volume()?, grid, coloring)
 }
 
 /// Renders the view at pan angle `pan` from a session and its model.
@@ -554,7 +551,13 @@ fn score_views(
 ) -> Result<Vec<PairScore>> {
     let masks = masks_of(views)?;
     let t = Instant::now();
-    let (rec, alg) = reconstruct_views(views, &masks, volume, params.grid, Criterion::default())?;
+    let (rec, alg) = reconstruct_views(
+        views,
+        &masks,
+        volume,
+        params.grid,
+        &ColoringParams::default(),
+    )?;
     timings.coloring_ms += t.elapsed().as_secs_f64() * 1e3;
     *algorithm = alg;
     let t = Instant::now();

@@ -9,7 +9,7 @@ use std::path::Path;
 use aibr_camera::{Angle, Camera};
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
 use aibr_scene::{RenderOptions, Scene};
-use aibr_voxel::{Criterion, VoxelGrid, VoxelModel, visual_hull};
+use aibr_voxel::{ColoringParams, VoxelGrid, VoxelModel, visual_hull};
 use image::{GrayImage, RgbImage};
 
 use crate::capture::{CaptureParams, Strategy, capture, reconstruct_views, voxel_views};
@@ -407,7 +407,7 @@ fn measure<R: EvalRig>(
                 &masks,
                 &session.volume()?,
                 params.grid,
-                Criterion::default(),
+                &ColoringParams::default(),
             )?
             .0
             .model

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use aibr::camera::Angle;
-use aibr::voxel::{Criterion, PlyOptions, write_ply};
+use aibr::voxel::{ColoringParams, PlyOptions, write_ply};
 use aibr::{
     CaptureParams, Checkpoint, EvalModel, EvalParams, Session, SimRig, Strategy, StrategyEval,
 };
@@ -414,10 +414,18 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
         scores_plot(&pans, &scores)?.as_bytes(),
     )?;
 
-    let (active_model, _) =
-        aibr::reconstruct_loaded(&active, &active_views, model_grid, Criterion::default())?;
-    let (uniform_model, _) =
-        aibr::reconstruct_loaded(&uniform, &uniform_views, model_grid, Criterion::default())?;
+    let (active_model, _) = aibr::reconstruct_loaded(
+        &active,
+        &active_views,
+        model_grid,
+        &ColoringParams::default(),
+    )?;
+    let (uniform_model, _) = aibr::reconstruct_loaded(
+        &uniform,
+        &uniform_views,
+        model_grid,
+        &ColoringParams::default(),
+    )?;
     let mut ply = Vec::new();
     write_ply(
         &active_model.model,

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use aibr::camera::Angle;
-use aibr::voxel::{Criterion, PlyOptions, write_ply};
+use aibr::voxel::{ColoringParams, Criterion, PlyOptions, write_ply};
 use aibr::{CaptureParams, EvalModel, Progress, Session, SimRig, Strategy, write_atomic};
 use anyhow::{Context, Result, bail};
 
@@ -291,9 +291,29 @@ struct ReconstructArgs {
     /// The colour-consistency criterion.
     #[arg(long, value_enum, default_value_t = CriterionArg::Angular)]
     criterion: CriterionArg,
+    /// Voxel coloring: leave out, for a voxel on the boundary of the masks' visual hull, the
+    /// views whose direction makes a cosine below this with the hull's outward normal (they
+    /// see it through the object); `off` asks every view, as Seitz and Dyer do. Default: the
+    /// library's (-0.3).
+    #[arg(long, value_name = "COSINE|off", value_parser = parse_behind_hull, allow_hyphen_values = true)]
+    behind_hull: Option<BehindHull>,
     /// Print a machine-readable summary on standard output.
     #[arg(long)]
     json: bool,
+}
+
+/// `--behind-hull`: a cosine in [-1, 1], or `off`.
+#[derive(Clone, Copy, Debug)]
+struct BehindHull(Option<f64>);
+
+fn parse_behind_hull(s: &str) -> std::result::Result<BehindHull, String> {
+    if s.eq_ignore_ascii_case("off") {
+        return Ok(BehindHull(None));
+    }
+    match s.parse::<f64>() {
+        Ok(c) if (-1.0..=1.0).contains(&c) => Ok(BehindHull(Some(c))),
+        _ => Err(format!("`{s}` is neither a cosine in [-1, 1] nor `off`")),
+    }
 }
 
 #[derive(clap::Args)]
@@ -1028,7 +1048,14 @@ fn criterion(c: CriterionArg) -> Criterion {
 fn reconstruct(a: ReconstructArgs) -> Result<()> {
     let session = Session::open(&a.session)?;
     let start = std::time::Instant::now();
-    let (rec, algorithm) = aibr::reconstruct(&session, a.grid, criterion(a.criterion))?;
+    let mut coloring = ColoringParams {
+        criterion: criterion(a.criterion),
+        ..ColoringParams::default()
+    };
+    if let Some(BehindHull(b)) = a.behind_hull {
+        coloring.behind_hull = b;
+    }
+    let (rec, algorithm) = aibr::reconstruct(&session, a.grid, &coloring)?;
     let coloring_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut bytes = Vec::new();
     write_ply(
@@ -1095,7 +1122,7 @@ fn render(a: RenderArgs) -> Result<()> {
     };
     // Decoded once, for both the model and the renderer.
     let views = session.load_views()?;
-    let (rec, _) = aibr::reconstruct_loaded(&session, &views, a.grid, Criterion::angular())?;
+    let (rec, _) = aibr::reconstruct_loaded(&session, &views, a.grid, &ColoringParams::default())?;
     let mut params = aibr::render::RenderParams::default();
     if a.no_refine {
         params.refine = None;

@@ -177,6 +177,26 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert!(summary["timings_ms"]["coloring_ms"].as_f64().is_some());
     let ply = std::fs::read(dir.join("model.ply"))?;
     assert!(ply.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
+    // The plain sweep asks every view, and so keeps another model.
+    let voxels = |extra: &[&str]| -> Result<serde_json::Value, Box<dyn std::error::Error>> {
+        let out = aibr()
+            .arg("reconstruct")
+            .arg(&dir)
+            .args(["--grid", "32", "--json"])
+            .args(extra)
+            .output()?;
+        assert_success(&out);
+        Ok(serde_json::from_slice::<serde_json::Value>(&out.stdout)?["voxels"].clone())
+    };
+    assert_eq!(voxels(&["--behind-hull", "-0.3"])?, summary["voxels"]);
+    assert_ne!(voxels(&["--behind-hull", "off"])?, summary["voxels"]);
+    let out = aibr()
+        .arg("reconstruct")
+        .arg(&dir)
+        .args(["--behind-hull", "1.5"])
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("`1.5`"), "{err}");
 
     // `aibr render` of the session with `args`, writing to `to`; and whether a run was
     // refused for `reason`.
