@@ -414,18 +414,11 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
         scores_plot(&pans, &scores)?.as_bytes(),
     )?;
 
-    let (active_model, _) = aibr::reconstruct_loaded(
-        &active,
-        &active_views,
-        model_grid,
-        &ColoringParams::default(),
-    )?;
-    let (uniform_model, _) = aibr::reconstruct_loaded(
-        &uniform,
-        &uniform_views,
-        model_grid,
-        &ColoringParams::default(),
-    )?;
+    let coloring = ColoringParams::default();
+    let (active_model, _) =
+        aibr::reconstruct_loaded(&active, &active_views, model_grid, &coloring)?;
+    let (uniform_model, _) =
+        aibr::reconstruct_loaded(&uniform, &uniform_views, model_grid, &coloring)?;
     let mut ply = Vec::new();
     write_ply(
         &active_model.model,
