@@ -8,8 +8,8 @@ use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
 use crate::hull::{Hull, any_mask, behind};
 use crate::kernel::{
-    Criterion, Footprint, Judge, Pixels, Projector, Sample, View, ViewBits, claim, decide,
-    prepare_views,
+    Criterion, Footprint, Judge, Pixels, Projector, Sample, Silhouette, View, ViewBits, claim,
+    decide, prepare_views,
 };
 
 /// Parameters of [`voxel_coloring`] and [`voxel_coloring_reference`].
@@ -534,15 +534,13 @@ fn decide_block(
             Ok(None) => {}
             Ok(Some(bound)) => {
                 if has_mask {
-                    match bits[v].mask_class(&bound) {
-                        // (A bound cut by the image's edge may hide voxels whose footprints
-                        // are wholly off the image: those this view does not reject.)
-                        0 if !proj.touches_edge(&bound) => {
+                    match bits[v].silhouette(proj, &bound) {
+                        Silhouette::Outside => {
                             out.rejected = size;
                             return out;
                         }
-                        2 => {}
-                        _ => scratch.silhouette.push(v),
+                        Silhouette::Inside => {}
+                        Silhouette::Mixed => scratch.silhouette.push(v),
                     }
                 }
                 if !bits[v].all_resolved(&bound) {
@@ -575,7 +573,7 @@ fn decide_block(
             .footprints
             .of(&projectors[v], v, (i0, i1), (j0, j1), layer);
         for (x, fp) in fps[..size].iter().enumerate() {
-            if scratch.alive[x] && !fp.is_empty() && bits[v].all_background(fp) {
+            if scratch.alive[x] && bits[v].rejects(fp) {
                 scratch.alive[x] = false;
                 alive -= 1;
             }
@@ -705,11 +703,13 @@ pub fn voxel_coloring_reference(
                     continue;
                 }
                 let x = grid.centre([i, j, k]);
-                let normal = hull.as_ref().map(|(h, _)| h.normal([i, j, k]));
+                let normal = hull
+                    .as_ref()
+                    .map(|(h, cosine)| (h.normal([i, j, k]), *cosine));
                 let mut samples = Vec::new();
                 for v in 0..n {
-                    if let (Some(normal), Some((_, cosine))) = (normal, &hull) {
-                        if behind(normal, &centres[v], &x, *cosine) {
+                    if let Some((normal, cosine)) = normal {
+                        if behind(normal, &centres[v], &x, cosine) {
                             continue;
                         }
                     }

@@ -13,7 +13,7 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use crate::grid::{VoxelGrid, VoxelModel};
-use crate::kernel::{Footprint, Pixels, Projector, ViewBits};
+use crate::kernel::{Footprint, Pixels, Projector, Silhouette, ViewBits};
 
 /// The visual hull of the views' masks, one flag per voxel.
 pub(crate) struct Hull {
@@ -80,7 +80,7 @@ impl Hull {
                                 ny,
                             };
                             match brick.classify(projectors, &bases, bits, brick_views) {
-                                Settled::Outside => {
+                                Silhouette::Outside => {
                                     for l in 0..k1 - k0 {
                                         for j in j0..j1 {
                                             let r = (l * ny + j) * nx;
@@ -88,8 +88,8 @@ impl Hull {
                                         }
                                     }
                                 }
-                                Settled::Inside => {}
-                                Settled::Mixed => {
+                                Silhouette::Inside => {}
+                                Silhouette::Mixed => {
                                     for l in 0..k1 - k0 {
                                         let mut cells = BlockCells {
                                             layer: &mut slab[l * nx * ny..(l + 1) * nx * ny],
@@ -172,14 +172,6 @@ impl Hull {
     }
 }
 
-/// What a brick's bounds say of all its voxels.
-enum Settled {
-    Outside,
-    Inside,
-    /// Some views must be asked layer by layer: those left in the brick's list.
-    Mixed,
-}
-
 /// A brick of [`Hull::culled`]: voxels `i.0..i.1` x `j.0..j.1` of `layers` layers.
 struct Brick {
     i: (usize, usize),
@@ -189,43 +181,56 @@ struct Brick {
 }
 
 impl Brick {
-    /// Settles the brick where one view's bound does, listing in `views` the views that
-    /// must be asked again.
+    /// What the views' bounds over the whole brick say (see [`settle`]).
     fn classify(
         &self,
         projectors: &[Projector],
         bases: &[Vec<[f32; 3]>],
         bits: &[ViewBits],
         views: &mut Vec<usize>,
-    ) -> Settled {
+    ) -> Silhouette {
         let ((i0, i1), (j0, j1)) = (self.i, self.j);
         let top = (self.layers - 1) * self.ny;
-        views.clear();
-        for (v, p) in projectors.iter().enumerate() {
+        let bound = |v: usize| {
             let b = &bases[v];
-            let bound = match p.brick_bounds(
+            projectors[v].brick_bounds(
                 (&b[top + j0], &b[top + j1 - 1]),
                 (&b[j0], &b[j1 - 1]),
                 (i0, i1),
-            ) {
-                Ok(bound) => bound,
-                Err(()) => {
-                    views.push(v);
-                    continue;
-                }
-            };
-            let Some(bound) = bound else { continue };
-            match bits[v].mask_class(&bound) {
-                2 => {}
-                0 if !p.touches_edge(&bound) => return Settled::Outside,
-                _ => views.push(v),
-            }
+            )
+        };
+        settle(0..projectors.len(), bound, projectors, bits, views)
+    }
+}
+
+/// What the masks of `views` say of every voxel of a box, from each view's `bound` over it:
+/// [`Silhouette::Outside`] as soon as one view rejects them all; otherwise the views that
+/// must be asked again (a mixed bound, or none computable) are listed in `mixed`, and the box
+/// is [`Silhouette::Mixed`] if there are any.
+fn settle(
+    views: impl Iterator<Item = usize>,
+    bound: impl Fn(usize) -> Result<Option<Footprint>, ()>,
+    projectors: &[Projector],
+    bits: &[ViewBits],
+    mixed: &mut Vec<usize>,
+) -> Silhouette {
+    mixed.clear();
+    for v in views {
+        match bound(v) {
+            // Every footprint is off this image: the view rejects none.
+            Ok(None) => {}
+            Ok(Some(bound)) => match bits[v].silhouette(&projectors[v], &bound) {
+                Silhouette::Outside => return Silhouette::Outside,
+                Silhouette::Inside => {}
+                Silhouette::Mixed => mixed.push(v),
+            },
+            Err(()) => mixed.push(v),
         }
-        if views.is_empty() {
-            Settled::Inside
-        } else {
-            Settled::Mixed
-        }
+    }
+    if mixed.is_empty() {
+        Silhouette::Inside
+    } else {
+        Silhouette::Mixed
     }
 }
 
@@ -251,23 +256,19 @@ impl BlockCells<'_> {
         mixed: &mut Vec<usize>,
     ) {
         let ((i0, i1), (j0, j1)) = (self.i, self.j);
-        mixed.clear();
-        for &v in views {
-            let (p, b) = (&projectors[v], rows(v));
-            match p.block_bounds(&b[j0], &b[j1 - 1], (i0, i1)) {
-                Ok(None) => {}
-                Ok(Some(bound)) => match bits[v].mask_class(&bound) {
-                    2 => {}
-                    0 if !p.touches_edge(&bound) => {
-                        for j in j0..j1 {
-                            self.layer[j * self.nx + i0..j * self.nx + i1].fill(false);
-                        }
-                        return;
-                    }
-                    _ => mixed.push(v),
-                },
-                Err(()) => mixed.push(v),
+        let bound = |v: usize| {
+            let b = rows(v);
+            projectors[v].block_bounds(&b[j0], &b[j1 - 1], (i0, i1))
+        };
+        match settle(views.iter().copied(), bound, projectors, bits, mixed) {
+            Silhouette::Outside => {
+                for j in j0..j1 {
+                    self.layer[j * self.nx + i0..j * self.nx + i1].fill(false);
+                }
+                return;
             }
+            Silhouette::Inside => return,
+            Silhouette::Mixed => {}
         }
         for &v in mixed.iter() {
             let mut any = false;
@@ -278,7 +279,7 @@ impl BlockCells<'_> {
                 }
                 projectors[v].footprints_along_row(&rows(v)[j], i0, self.row);
                 for (cell, fp) in cells.iter_mut().zip(self.row.iter()) {
-                    if *cell && !fp.is_empty() && bits[v].all_background(fp) {
+                    if *cell && bits[v].rejects(fp) {
                         *cell = false;
                     }
                     any |= *cell;

@@ -593,6 +593,17 @@ impl Span {
     }
 }
 
+/// What masks say of every voxel of a box (a block or a brick): by one view, or by all.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Silhouette {
+    /// Rejected: background under the whole bound, which lies on the image.
+    Outside,
+    /// Not rejected: foreground under the whole bound, or no mask.
+    Inside,
+    /// Neither: ask voxel by voxel.
+    Mixed,
+}
+
 /// The fast kernel's per-view state: which pixels are background and which a voxel may no
 /// longer gather from, a bit per pixel.
 #[derive(Debug, Clone)]
@@ -633,6 +644,27 @@ impl ViewBits {
     #[inline]
     pub(crate) fn all_background(&self, fp: &Footprint) -> bool {
         self.background.as_ref().is_some_and(|bg| bg.all(fp))
+    }
+
+    /// Whether this view rejects the voxel whose footprint is `fp` (the silhouette
+    /// constraint): the footprint is on the image and all background there.
+    #[inline]
+    pub(crate) fn rejects(&self, fp: &Footprint) -> bool {
+        !fp.is_empty() && self.all_background(fp)
+    }
+
+    /// What this view's mask says of every voxel whose footprint lies within `bound`, a
+    /// bound [`Projector::block_bounds`] or [`Projector::brick_bounds`] gave for `projector`.
+    /// A bound cut by the image's edge may hold voxels whose footprints are wholly off the
+    /// image, which the view does not reject: such a bound is never
+    /// [`Silhouette::Outside`].
+    #[inline]
+    pub(crate) fn silhouette(&self, projector: &Projector, bound: &Footprint) -> Silhouette {
+        match self.mask_class(bound) {
+            2 => Silhouette::Inside,
+            0 if !projector.touches_edge(bound) => Silhouette::Outside,
+            _ => Silhouette::Mixed,
+        }
     }
 
     /// Every pixel of `fp` is claimed or background: it has nothing to gather.
