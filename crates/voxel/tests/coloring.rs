@@ -4,8 +4,8 @@ use aibr_camera::{Angle, Camera, Distortion};
 use aibr_scene::{Frame, RenderOptions, Scene, catalogue};
 use aibr_voxel::metrics::geometry_score;
 use aibr_voxel::{
-    CarvingParams, ColoringParams, Criterion, Error, PlyOptions, View, VoxelGrid, space_carving,
-    visual_hull, voxel_coloring, voxel_coloring_reference, write_ply,
+    CarvingParams, ColoringParams, Criterion, Error, PlyOptions, View, VoxelGrid, VoxelModel,
+    space_carving, visual_hull, voxel_coloring, voxel_coloring_reference, write_ply,
 };
 use image::{GrayImage, RgbImage};
 use nalgebra::Point3;
@@ -51,6 +51,40 @@ impl Capture {
     }
 }
 
+/// Runs the fast path and the reference; asserts a model worth comparing, the same model
+/// voxel for voxel and the same counts; returns the model.
+fn fast_equals_reference(
+    grid: &VoxelGrid,
+    views: &[View<'_>],
+    params: &ColoringParams,
+    case: &str,
+) -> Result<VoxelModel, Box<dyn std::error::Error>> {
+    let fast = voxel_coloring(grid, views, params)?;
+    let reference = voxel_coloring_reference(grid, views, params)?;
+    assert!(fast.model.occupied_count() > 100, "{case}");
+    assert!(fast.model == reference.model, "{case}");
+    assert_eq!(fast.stats.tested, reference.stats.tested, "{case}");
+    assert_eq!(fast.stats.kept, reference.stats.kept, "{case}");
+    Ok(fast.model)
+}
+
+/// Points of a true surface.
+type Points = Vec<Point3<f64>>;
+
+/// Ground truth of `scene` for [`geometry_score`]: `surface` points of its exposed surface
+/// and `visible` points of its visible surface.
+fn truth(
+    scene: &Scene,
+    surface: usize,
+    visible: usize,
+) -> Result<(Points, Points), Box<dyn std::error::Error>> {
+    let points = |samples: Vec<(Point3<f64>, _)>| samples.into_iter().map(|(p, _)| p).collect();
+    Ok((
+        points(scene.exposed_surface_samples(surface, 7)),
+        points(scene.surface_samples(visible, 8)?),
+    ))
+}
+
 #[test]
 fn fast_path_equals_the_reference_voxel_for_voxel() -> TestResult {
     let scene = catalogue::head()?;
@@ -67,17 +101,16 @@ fn fast_path_equals_the_reference_voxel_for_voxel() -> TestResult {
                         behind_hull,
                         ..ColoringParams::default()
                     };
-                    let fast = voxel_coloring(&grid, &cap.views(masks), &params)?;
-                    let reference = voxel_coloring_reference(&grid, &cap.views(masks), &params)?;
                     let case = format!(
                         "masks {masks}, {criterion:?}, visible_only {visible_only}, \
                          behind_hull {behind_hull:?}"
                     );
-                    assert!(fast.model.occupied_count() > 100, "{case}");
-                    assert!(fast.model == reference.model, "{case}");
-                    assert_eq!(fast.stats.tested, reference.stats.tested, "{case}");
-                    assert_eq!(fast.stats.kept, reference.stats.kept, "{case}");
-                    models.push(fast.model);
+                    models.push(fast_equals_reference(
+                        &grid,
+                        &cap.views(masks),
+                        &params,
+                        &case,
+                    )?);
                 }
                 // The views behind the hull are left out only where there is a hull, and
                 // then they change the model: the comparison above tests that path too.
@@ -114,12 +147,12 @@ fn fast_path_equals_the_reference_where_the_object_leaves_the_images() -> TestRe
             behind_hull,
             ..ColoringParams::default()
         };
-        let fast = voxel_coloring(&grid, &cap.views(true), &params)?;
-        let reference = voxel_coloring_reference(&grid, &cap.views(true), &params)?;
-        assert!(fast.model.occupied_count() > 100, "{behind_hull:?}");
-        assert!(fast.model == reference.model, "{behind_hull:?}");
-        assert_eq!(fast.stats.tested, reference.stats.tested, "{behind_hull:?}");
-        assert_eq!(fast.stats.kept, reference.stats.kept, "{behind_hull:?}");
+        fast_equals_reference(
+            &grid,
+            &cap.views(true),
+            &params,
+            &format!("{behind_hull:?}"),
+        )?;
     }
     Ok(())
 }
@@ -132,16 +165,7 @@ fn views_behind_the_hull_no_longer_tear_the_mirror_box() -> TestResult {
     let scene = catalogue::mirror()?;
     let cap = capture(&scene, 24)?;
     let grid = VoxelGrid::with_resolution(scene.bounds(), 64)?;
-    let visible: Vec<Point3<f64>> = scene
-        .surface_samples(20_000, 8)?
-        .into_iter()
-        .map(|(p, _)| p)
-        .collect();
-    let surface: Vec<Point3<f64>> = scene
-        .exposed_surface_samples(100_000, 7)
-        .into_iter()
-        .map(|(p, _)| p)
-        .collect();
+    let (surface, visible) = truth(&scene, 100_000, 20_000)?;
     let score = |behind_hull| -> Result<_, Box<dyn std::error::Error>> {
         let params = ColoringParams {
             behind_hull,
@@ -194,16 +218,7 @@ fn lambertian_accuracy_and_completeness() -> TestResult {
     let cap = capture(&scene, 48)?;
     let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
     let out = voxel_coloring(&grid, &cap.views(true), &ColoringParams::default())?;
-    let surface: Vec<Point3<f64>> = scene
-        .exposed_surface_samples(300_000, 7)
-        .into_iter()
-        .map(|(p, _)| p)
-        .collect();
-    let visible: Vec<Point3<f64>> = scene
-        .surface_samples(20_000, 8)?
-        .into_iter()
-        .map(|(p, _)| p)
-        .collect();
+    let (surface, visible) = truth(&scene, 300_000, 20_000)?;
     let score = geometry_score(&out.model, &surface, &visible);
     eprintln!("lambertian 128^3 x 48: {score:?}");
     assert!(score.accuracy_voxels <= 1.7, "{score:?}");
