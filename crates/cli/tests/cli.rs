@@ -166,40 +166,32 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert_eq!(summary["views"].as_array().map(|v| v.len()), Some(6));
     assert!(summary["timings_ms"]["capture_ms"].as_f64().is_some());
 
-    let out = aibr()
-        .arg("reconstruct")
-        .arg(&dir)
-        .args(["--grid", "32", "--json"])
-        .output()?;
-    assert_success(&out);
-    let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    // `aibr reconstruct` of the session with `args`; and whether a run was refused for
+    // `reason`.
+    let reconstruct = |args: &[&str]| aibr().arg("reconstruct").arg(&dir).args(args).output();
+    let refused = |out: &std::process::Output, reason: &str| {
+        !out.status.success() && String::from_utf8_lossy(&out.stderr).contains(reason)
+    };
+    // Its JSON summary at 32^3, with `args`.
+    let summary_with = |args: &[&str]| -> Result<serde_json::Value, Box<dyn std::error::Error>> {
+        let out = reconstruct(&[&["--grid", "32", "--json"], args].concat())?;
+        assert_success(&out);
+        Ok(serde_json::from_slice(&out.stdout)?)
+    };
+    let summary = summary_with(&[])?;
     assert_eq!(summary["algorithm"], "voxel coloring");
     assert!(summary["timings_ms"]["coloring_ms"].as_f64().is_some());
     let ply = std::fs::read(dir.join("model.ply"))?;
     assert!(ply.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
     // The plain sweep asks every view, and so keeps another model.
-    let voxels = |extra: &[&str]| -> Result<serde_json::Value, Box<dyn std::error::Error>> {
-        let out = aibr()
-            .arg("reconstruct")
-            .arg(&dir)
-            .args(["--grid", "32", "--json"])
-            .args(extra)
-            .output()?;
-        assert_success(&out);
-        Ok(serde_json::from_slice::<serde_json::Value>(&out.stdout)?["voxels"].clone())
+    let voxels = |args: &[&str]| -> Result<serde_json::Value, Box<dyn std::error::Error>> {
+        Ok(summary_with(args)?["voxels"].clone())
     };
     assert_eq!(voxels(&["--behind-hull", "-0.3"])?, summary["voxels"]);
     assert_ne!(voxels(&["--behind-hull", "off"])?, summary["voxels"]);
-    let out = aibr()
-        .arg("reconstruct")
-        .arg(&dir)
-        .args(["--behind-hull", "1.5"])
-        .output()?;
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("`1.5`"), "{err}");
+    assert!(refused(&reconstruct(&["--behind-hull", "1.5"])?, "`1.5`"));
 
-    // `aibr render` of the session with `args`, writing to `to`; and whether a run was
-    // refused for `reason`.
+    // `aibr render` of the session with `args`, writing to `to`.
     let render = |args: &[&str], to: &Path| {
         aibr()
             .arg("render")
@@ -208,9 +200,6 @@ fn reconstruct_and_render_a_session() -> TestResult {
             .arg("-o")
             .arg(to)
             .output()
-    };
-    let refused = |out: &std::process::Output, reason: &str| {
-        !out.status.success() && String::from_utf8_lossy(&out.stderr).contains(reason)
     };
 
     // The single view every later render is compared with.
