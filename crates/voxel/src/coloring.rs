@@ -444,7 +444,9 @@ struct BlockFootprints {
 
 impl BlockFootprints {
     /// The footprints in view `v` of the voxels `[i0..i1) x [j0..j1)` of layer `k`, computed
-    /// on first use within the block.
+    /// on first use within the block for the rows that hold a voxel still `alive` (flags
+    /// row-major, as the footprints are). The other rows keep stale values: ask only for
+    /// voxels alive at the first use (they are alive then).
     fn of(
         &mut self,
         p: &Projector,
@@ -452,6 +454,7 @@ impl BlockFootprints {
         (i0, i1): (usize, usize),
         (j0, j1): (usize, usize),
         layer: &Layer<'_>,
+        alive: &[bool],
     ) -> &[Footprint] {
         let cells = BLOCK * BLOCK;
         let out = &mut self.footprints[v * cells..(v + 1) * cells];
@@ -459,8 +462,10 @@ impl BlockFootprints {
             self.projected[v] = true;
             let width = i1 - i0;
             for j in j0..j1 {
-                let base = layer.base(v, j);
-                p.footprints_along_row(base, i0, &mut out[(j - j0) * width..(j - j0 + 1) * width]);
+                let row = (j - j0) * width..(j - j0 + 1) * width;
+                if alive[row.clone()].iter().any(|&a| a) {
+                    p.footprints_along_row(layer.base(v, j), i0, &mut out[row]);
+                }
             }
         }
         out
@@ -569,9 +574,10 @@ fn decide_block(
     };
     let silhouette = std::mem::take(&mut scratch.silhouette);
     for &v in &silhouette {
-        let fps = scratch
-            .footprints
-            .of(&projectors[v], v, (i0, i1), (j0, j1), layer);
+        let fps =
+            scratch
+                .footprints
+                .of(&projectors[v], v, (i0, i1), (j0, j1), layer, &scratch.alive);
         for (x, fp) in fps[..size].iter().enumerate() {
             if scratch.alive[x] && bits[v].rejects(fp) {
                 scratch.alive[x] = false;
@@ -596,9 +602,10 @@ fn decide_block(
         if alive == 0 {
             break;
         }
-        let fps = scratch
-            .footprints
-            .of(&projectors[v], v, (i0, i1), (j0, j1), layer);
+        let fps =
+            scratch
+                .footprints
+                .of(&projectors[v], v, (i0, i1), (j0, j1), layer, &scratch.alive);
         for (x, fp) in fps[..size].iter().enumerate() {
             if !scratch.alive[x] {
                 continue;

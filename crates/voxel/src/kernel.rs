@@ -507,6 +507,11 @@ impl PixelBits {
             return true;
         }
         let span = Span::of(fp);
+        if span.w0 == span.w1 {
+            // Within one word a row, as most footprints are: one load a row.
+            let m = span.first & span.last;
+            return (fp.v0..=fp.v1).all(|v| test(self.bits[v as usize * self.words + span.w0], m));
+        }
         (fp.v0..=fp.v1).all(|v| span.words(self.row(v)).all(|(w, m)| test(w, m)))
     }
 
@@ -689,16 +694,27 @@ impl ViewBits {
             sum[2] += u32::from(c[2]);
         };
         let span = Span::of(fp);
+        let mut add_word = |first: usize, mut open: u64| {
+            n += open.count_ones();
+            while open != 0 {
+                add(first + open.trailing_zeros() as usize);
+                open &= open - 1;
+            }
+        };
+        if span.w0 == span.w1 {
+            // Within one word a row, as most footprints are.
+            let m = span.first & span.last;
+            let words = self.resolved.words;
+            for v in fp.v0..=fp.v1 {
+                let w = self.resolved.bits[v as usize * words + span.w0];
+                add_word(v as usize * px.width + 64 * span.w0, !w & m);
+            }
+            return (sum, n);
+        }
         for v in fp.v0..=fp.v1 {
             let base = v as usize * px.width + 64 * span.w0;
             for (i, (w, m)) in span.words(self.resolved.row(v)).enumerate() {
-                let mut open = !w & m;
-                n += open.count_ones();
-                let first = base + 64 * i;
-                while open != 0 {
-                    add(first + open.trailing_zeros() as usize);
-                    open &= open - 1;
-                }
+                add_word(base + 64 * i, !w & m);
             }
         }
         (sum, n)
