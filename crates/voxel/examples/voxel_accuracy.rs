@@ -4,7 +4,9 @@
 //! (defaults: 128, 48, every catalogue scene). Views are spread uniformly over the pan range;
 //! the ground-truth masks are used as silhouettes. Environment variables change the
 //! defaults: `THRESH` and `WINDOW` (the angular criterion), `CTHRESH` (the classic one),
-//! `MINV` (`min_views`) and `BEHIND_HULL` (a cosine, or `off` to ask every view).
+//! `MINV` (`min_views`) and `BEHIND_HULL` (a cosine, or `off` to ask every view); `PANS`, a
+//! comma-separated list of pan angles in degrees, replaces the uniform views (for instance
+//! the `pans_deg` of an `aibr eval --json` checkpoint; `VIEWS` is then ignored).
 
 use aibr_scene::{RenderOptions, catalogue};
 use aibr_voxel::metrics::geometry_score;
@@ -33,7 +35,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             noise_sigma: 1.0 / 255.0,
             seed: 1,
         };
-        let shots = scene.shoot(&scene.rig.uniform_pans(n_views), &options)?;
+        let pans = match std::env::var("PANS") {
+            Ok(list) => list
+                .split(',')
+                .map(|d| d.trim().parse().map(aibr_camera::Angle::from_degrees))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| format!("PANS: {e} in {list:?}"))?,
+            Err(_) => scene.rig.uniform_pans(n_views),
+        };
+        let shots = scene.shoot(&pans, &options)?;
         let views: Vec<View<'_>> = shots
             .iter()
             .map(|s| View {
