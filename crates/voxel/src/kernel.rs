@@ -493,6 +493,12 @@ impl PixelBits {
         out
     }
 
+    /// Word `w` of row `v`.
+    #[inline]
+    fn word(&self, v: u32, w: usize) -> u64 {
+        self.bits[v as usize * self.words + w]
+    }
+
     #[inline]
     fn row(&self, v: u32) -> &[u64] {
         let at = v as usize * self.words;
@@ -507,10 +513,8 @@ impl PixelBits {
             return true;
         }
         let span = Span::of(fp);
-        if span.w0 == span.w1 {
-            // Within one word a row, as most footprints are: one load a row.
-            let m = span.first & span.last;
-            return (fp.v0..=fp.v1).all(|v| test(self.bits[v as usize * self.words + span.w0], m));
+        if let Some(m) = span.single() {
+            return (fp.v0..=fp.v1).all(|v| test(self.word(v, span.w0), m));
         }
         (fp.v0..=fp.v1).all(|v| span.words(self.row(v)).all(|(w, m)| test(w, m)))
     }
@@ -572,6 +576,13 @@ impl Span {
             first: u64::MAX << (fp.u0 % 64),
             last: u64::MAX >> (63 - fp.u1 % 64),
         }
+    }
+
+    /// The mask of the footprint's pixels when they lie within one word a row, as most do
+    /// (a test then reads one word a row).
+    #[inline]
+    fn single(&self) -> Option<u64> {
+        (self.w0 == self.w1).then_some(self.first & self.last)
     }
 
     /// The mask of the footprint's pixels in word `w` (from `w0` to `w1`).
@@ -701,12 +712,9 @@ impl ViewBits {
                 open &= open - 1;
             }
         };
-        if span.w0 == span.w1 {
-            // Within one word a row, as most footprints are.
-            let m = span.first & span.last;
-            let words = self.resolved.words;
+        if let Some(m) = span.single() {
             for v in fp.v0..=fp.v1 {
-                let w = self.resolved.bits[v as usize * words + span.w0];
+                let w = self.resolved.word(v, span.w0);
                 add_word(v as usize * px.width + 64 * span.w0, !w & m);
             }
             return (sum, n);
