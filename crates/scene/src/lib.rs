@@ -47,7 +47,8 @@ pub mod texture;
 pub use error::{Error, Result};
 pub use render::{Frame, RenderOptions, Shot};
 pub use scene::{
-    Backdrop, Environment, Light, Material, Scene, SceneHit, SceneObject, SceneRig, SkyLight,
+    Backdrop, Environment, GeometryReference, Light, Material, Scene, SceneHit, SceneObject,
+    SceneRig, SkyLight,
 };
 pub use shape::{Hit, Shape};
 pub use texture::{Colour, Texture};

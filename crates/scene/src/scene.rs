@@ -35,6 +35,16 @@ pub enum Material {
     },
 }
 
+/// Samples of a scene's true surface to score a reconstruction against
+/// ([`Scene::geometry_reference`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeometryReference {
+    /// Points over the whole exposed surface, seen or not (for accuracy).
+    pub exposed: Vec<Point3<f64>>,
+    /// Points over the surface the rig's cameras see (for completeness).
+    pub visible: Vec<Point3<f64>>,
+}
+
 /// A primitive with its material.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneObject {
@@ -300,6 +310,19 @@ impl Scene {
         seed: u64,
     ) -> Vec<(Point3<f64>, Vector3<f64>)> {
         self.sample_surface(count, seed, None)
+    }
+
+    /// The true surface the project scores reconstructions of this scene against
+    /// (`aibr_voxel::metrics::geometry_score`): 400,000 points over the whole exposed surface
+    /// ([`Scene::exposed_surface_samples`], seed 7) for accuracy and 50,000 over the part the
+    /// rig sees ([`Scene::surface_samples`], seed 8) for completeness. The geometry figures
+    /// of `docs/results.md` are measured against it. Deterministic.
+    pub fn geometry_reference(&self) -> Result<GeometryReference> {
+        let points = |s: Vec<(Point3<f64>, Vector3<f64>)>| s.into_iter().map(|(p, _)| p).collect();
+        Ok(GeometryReference {
+            exposed: points(self.exposed_surface_samples(400_000, 7)),
+            visible: points(self.surface_samples(50_000, 8)?),
+        })
     }
 
     fn sample_surface(

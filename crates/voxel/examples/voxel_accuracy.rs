@@ -11,7 +11,6 @@
 use aibr_scene::{RenderOptions, catalogue};
 use aibr_voxel::metrics::geometry_score;
 use aibr_voxel::{ColoringParams, Criterion, View, VoxelGrid, voxel_coloring};
-use nalgebra::Point3;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -52,16 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 mask: Some(&s.frame.mask),
             })
             .collect();
-        let surface: Vec<Point3<f64>> = scene
-            .exposed_surface_samples(400_000, 7)
-            .into_iter()
-            .map(|(p, _)| p)
-            .collect();
-        let visible: Vec<Point3<f64>> = scene
-            .surface_samples(50_000, 8)?
-            .into_iter()
-            .map(|(p, _)| p)
-            .collect();
+        let reference = scene.geometry_reference()?;
         let grid = VoxelGrid::with_resolution(scene.bounds(), resolution)?;
         let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
         let angular = match (env("THRESH"), env("WINDOW")) {
@@ -90,7 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let start = std::time::Instant::now();
             let out = voxel_coloring(&grid, &views, &params)?;
             let ms = start.elapsed().as_secs_f64() * 1e3;
-            let score = geometry_score(&out.model, &surface, &visible);
+            let score = geometry_score(&out.model, &reference.exposed, &reference.visible);
             println!(
                 "| {name} | {label} | {:.2} | {:.1}% | {} | {ms:.0} |",
                 score.accuracy_voxels,
