@@ -8,7 +8,8 @@ use std::path::Path;
 
 use aibr_camera::{Angle, Camera};
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
-use aibr_scene::{RenderOptions, Scene};
+use aibr_scene::{GeometryReference, RenderOptions, Scene};
+use aibr_voxel::metrics::{GeometryScore, geometry_score};
 use aibr_voxel::{ColoringParams, VoxelGrid, VoxelModel, visual_hull};
 use image::{GrayImage, RgbImage};
 
@@ -192,6 +193,11 @@ pub struct Checkpoint {
     pub worst_arc: (Angle, Angle),
     /// Every novel view evaluated, in pan order.
     pub novel: Vec<NovelView>,
+    /// Accuracy and completeness of the model the novel views were rendered from, against
+    /// the rig's true surface ([`Scene::geometry_reference`]); `None` on a rig that does
+    /// not know its geometry (a replay). Renders depend on the geometry as much as on the
+    /// views, and which views are taken changes the geometry (`docs/results.md`).
+    pub geometry: Option<GeometryScore>,
 }
 
 /// The measurement of one novel view.
@@ -283,6 +289,14 @@ pub fn evaluate_rig<R: EvalRig>(
             })?)
         }
     };
+    // The true surface, sampled once, to score every checkpoint's model against.
+    let reference = match rig.true_geometry() {
+        Some(scene) => {
+            progress("sampling the true surface".into());
+            Some(scene.geometry_reference()?)
+        }
+        None => None,
+    };
     let mut out = Vec::new();
     // Ground truth per evaluated pan angle, rendered (or read) once for every checkpoint
     // of every strategy: most angles recur.
@@ -327,7 +341,11 @@ pub fn evaluate_rig<R: EvalRig>(
                 "{} {n} views: rendering novel views",
                 strategy.name()
             ));
-            checkpoints.push(measure(rig, views, session, params, geometry, &mut truths)?);
+            let at = Measure {
+                geometry,
+                reference: reference.as_ref(),
+            };
+            checkpoints.push(measure(rig, views, session, params, at, &mut truths)?);
         }
         out.push(StrategyEval {
             strategy,
@@ -384,12 +402,22 @@ enum Geometry<'a> {
     Truth(&'a Scene),
 }
 
+/// What a checkpoint renders from, and the true surface to score that against.
+#[derive(Clone, Copy)]
+struct Measure<'a> {
+    geometry: Geometry<'a>,
+    reference: Option<&'a GeometryReference>,
+}
+
 fn measure<R: EvalRig>(
     rig: &R,
     views: &[LoadedView],
     session: &Session,
     params: &EvalParams,
-    geometry: Geometry<'_>,
+    Measure {
+        geometry,
+        reference,
+    }: Measure<'_>,
     truths: &mut TruthCache,
 ) -> Result<Checkpoint> {
     let masks: Vec<_> = views
@@ -421,6 +449,7 @@ fn measure<R: EvalRig>(
             VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0))
         }
     };
+    let geometry_score = reference.map(|r| geometry_score(&model, &r.exposed, &r.visible));
     let sources = views
         .iter()
         .map(|v| SourceView {
@@ -475,6 +504,7 @@ fn measure<R: EvalRig>(
         worst_arc_psnr: worst.0,
         worst_arc: worst.1,
         novel,
+        geometry: geometry_score,
     })
 }
 

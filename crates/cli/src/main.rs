@@ -250,7 +250,9 @@ struct EvalArgs {
     /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
     #[arg(long, default_value = "aibr-eval")]
     work: PathBuf,
-    /// Print a machine-readable summary on standard output.
+    /// Print a machine-readable summary on standard output. On a synthetic rig each
+    /// checkpoint also scores the model rendered from against the scene's true surface
+    /// ("geometry": accuracy in voxels, completeness; null on a replay rig).
     #[arg(long)]
     json: bool,
 }
@@ -994,6 +996,11 @@ fn eval(a: EvalArgs) -> Result<()> {
                         "worst_arc_psnr_db": c.worst_arc_psnr,
                         "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
                         "pans_deg": c.pans.iter().map(|p| p.degrees()).collect::<Vec<_>>(),
+                        "geometry": c.geometry.map(|g| serde_json::json!({
+                            "accuracy_voxels": g.accuracy_voxels,
+                            "completeness": g.completeness,
+                            "surface_voxels": g.surface_voxels,
+                        })),
                         "novel_views": c.novel.iter().map(|v| serde_json::json!({
                             "pan_deg": v.pan.degrees(),
                             "masked_psnr_db": v.psnr,
@@ -1020,19 +1027,30 @@ fn eval(a: EvalArgs) -> Result<()> {
 /// The short table of an evaluation: one line per strategy and checkpoint.
 fn print_eval_table(results: &[aibr::StrategyEval]) {
     println!(
-        "{:<8} {:>5} {:>12} {:>14} {:>8} {:>16}",
-        "strategy", "views", "PSNR (dB)", "pooled (dB)", "SSIM", "worst arc (dB)"
+        "{:<8} {:>5} {:>12} {:>14} {:>8} {:>16} {:>20}",
+        "strategy",
+        "views",
+        "PSNR (dB)",
+        "pooled (dB)",
+        "SSIM",
+        "worst arc (dB)",
+        "geometry (vox / %)"
     );
     for r in results {
         for c in &r.checkpoints {
+            // Accuracy (voxels) and completeness of the model, where the rig knows the truth.
+            let geometry = c.geometry.map_or("-".to_string(), |g| {
+                format!("{:.2} / {:.1}", g.accuracy_voxels, 100.0 * g.completeness)
+            });
             println!(
-                "{:<8} {:>5} {:>12.2} {:>14.2} {:>8.3} {:>16.2}",
+                "{:<8} {:>5} {:>12.2} {:>14.2} {:>8.3} {:>16.2} {:>20}",
                 r.strategy.name(),
                 c.views,
                 c.mean_psnr,
                 c.pooled_psnr,
                 c.mean_ssim,
-                c.worst_arc_psnr
+                c.worst_arc_psnr,
+                geometry
             );
         }
     }
