@@ -481,13 +481,19 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     }
 
     let mut table = String::from(
-        "<table><tr><th>strategy</th><th>views</th><th>mean PSNR (dB)</th><th>pooled PSNR (dB)</th><th>mean SSIM</th><th>worst arc (dB)</th><th>worst arc (degrees)</th></tr>\n",
+        "<table><tr><th>strategy</th><th>views</th><th>mean PSNR (dB)</th><th>pooled PSNR (dB)</th><th>mean SSIM</th><th>worst arc (dB)</th><th>worst arc (degrees)</th><th>model accuracy (voxels)</th><th>model completeness</th></tr>\n",
     );
     for r in &results {
         for c in &r.checkpoints {
+            let (accuracy, completeness) = c.geometry.map_or(("-".into(), "-".into()), |g| {
+                (
+                    format!("{:.2}", g.accuracy_voxels),
+                    format!("{:.1}%", 100.0 * g.completeness),
+                )
+            });
             writeln!(
                 table,
-                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:.3}</td><td>{:.2}</td><td>{:.1} to {:.1}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:.3}</td><td>{:.2}</td><td>{:.1} to {:.1}</td><td>{accuracy}</td><td>{completeness}</td></tr>",
                 r.strategy.name(),
                 c.views,
                 c.mean_psnr,
@@ -514,7 +520,10 @@ and compares it with the ground truth inside the object mask (a coarse grid, to 
 short: <code>aibr eval --rig sim:{scene}</code> measures every degree, and its means differ by
 a few tenths of a decibel). <i>Mean PSNR</i> averages the
 novel views' PSNRs; <i>pooled PSNR</i> is the PSNR of their mean squared error, where the views
-that render worst (on a mirror, say) weigh the most. Made by <code>aibr demo</code> in
+that render worst (on a mirror, say) weigh the most. <i>Model accuracy</i> is the distance
+within which 90% of the model's surface voxels lie from the true surface, <i>completeness</i>
+the share of the visible true surface within 1.5 voxels of the model: renders follow the
+geometry, and which views are taken changes it. Made by <code>aibr demo</code> in
 {elapsed:.0} s.</p>
 <h2>Results</h2>
 {table}
