@@ -341,11 +341,11 @@ pub fn evaluate_rig<R: EvalRig>(
                 "{} {n} views: rendering novel views",
                 strategy.name()
             ));
-            let at = Measure {
+            let model = Measure {
                 geometry,
                 reference: reference.as_ref(),
             };
-            checkpoints.push(measure(rig, views, session, params, at, &mut truths)?);
+            checkpoints.push(measure(rig, views, session, params, model, &mut truths)?);
         }
         out.push(StrategyEval {
             strategy,
@@ -449,7 +449,7 @@ fn measure<R: EvalRig>(
             VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0))
         }
     };
-    let geometry_score = reference.map(|r| geometry_score(&model, &r.exposed, &r.visible));
+    let score = reference.map(|r| geometry_score(&model, &r.exposed, &r.visible));
     let sources = views
         .iter()
         .map(|v| SourceView {
@@ -504,7 +504,7 @@ fn measure<R: EvalRig>(
         worst_arc_psnr: worst.0,
         worst_arc: worst.1,
         novel,
-        geometry: geometry_score,
+        geometry: score,
     })
 }
 
