@@ -312,8 +312,18 @@ fn parse_behind_hull(s: &str) -> std::result::Result<BehindHull, String> {
     if s.eq_ignore_ascii_case("off") {
         return Ok(BehindHull(None));
     }
+    // The range is the library's rule (`ColoringParams::validate`), checked here so that a
+    // bad value is refused before the session is read.
+    let valid = |c: f64| {
+        ColoringParams {
+            behind_hull: Some(c),
+            ..ColoringParams::default()
+        }
+        .validate()
+        .is_ok()
+    };
     match s.parse::<f64>() {
-        Ok(c) if (-1.0..=1.0).contains(&c) => Ok(BehindHull(Some(c))),
+        Ok(c) if valid(c) => Ok(BehindHull(Some(c))),
         _ => Err(format!("`{s}` is neither a cosine in [-1, 1] nor `off`")),
     }
 }

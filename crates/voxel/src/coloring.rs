@@ -46,6 +46,21 @@ impl Default for ColoringParams {
     }
 }
 
+impl ColoringParams {
+    /// Checks the parameters the kernels would refuse: a [`ColoringParams::behind_hull`]
+    /// outside `[-1, 1]` (or NaN) is [`Error::InvalidParameter`].
+    pub fn validate(&self) -> Result<()> {
+        match self.behind_hull {
+            Some(cosine) if !(-1.0..=1.0).contains(&cosine) => Err(Error::InvalidParameter {
+                name: "behind_hull",
+                value: cosine,
+                reason: "a cosine must lie in [-1, 1]",
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// Counts from one run of a kernel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct KernelStats {
@@ -94,15 +109,7 @@ fn prepare<'a>(
     views: &[View<'a>],
     params: &ColoringParams,
 ) -> Result<Prepared<'a>> {
-    if let Some(cosine) = params.behind_hull {
-        if !(-1.0..=1.0).contains(&cosine) {
-            return Err(Error::InvalidParameter {
-                name: "behind_hull",
-                value: cosine,
-                reason: "a cosine must lie in [-1, 1]",
-            });
-        }
-    }
+    params.validate()?;
     let (projectors, pixels) = prepare_views(grid, views, params.min_views.max(1))?;
     check_cameras_above(grid, views)?;
     let centres = projectors.iter().map(|p| p.centre).collect();
