@@ -318,10 +318,20 @@ impl Scene {
     /// rig sees ([`Scene::surface_samples`], seed 8) for completeness. The geometry figures
     /// of `docs/results.md` are measured against it. Deterministic.
     pub fn geometry_reference(&self) -> Result<GeometryReference> {
+        self.geometry_reference_of(400_000, 50_000)
+    }
+
+    /// [`Scene::geometry_reference`] with `exposed` and `visible` points (the same seeds),
+    /// for checks that can do with fewer.
+    pub fn geometry_reference_of(
+        &self,
+        exposed: usize,
+        visible: usize,
+    ) -> Result<GeometryReference> {
         let points = |s: Vec<(Point3<f64>, Vector3<f64>)>| s.into_iter().map(|(p, _)| p).collect();
         Ok(GeometryReference {
-            exposed: points(self.exposed_surface_samples(400_000, 7)),
-            visible: points(self.surface_samples(50_000, 8)?),
+            exposed: points(self.exposed_surface_samples(exposed, 7)),
+            visible: points(self.surface_samples(visible, 8)?),
         })
     }
 

@@ -68,23 +68,6 @@ fn fast_equals_reference(
     Ok(fast.model)
 }
 
-/// Points of a true surface.
-type Points = Vec<Point3<f64>>;
-
-/// Ground truth of `scene` for [`geometry_score`]: `surface` points of its exposed surface
-/// and `visible` points of its visible surface.
-fn truth(
-    scene: &Scene,
-    surface: usize,
-    visible: usize,
-) -> Result<(Points, Points), Box<dyn std::error::Error>> {
-    let points = |samples: Vec<(Point3<f64>, _)>| samples.into_iter().map(|(p, _)| p).collect();
-    Ok((
-        points(scene.exposed_surface_samples(surface, 7)),
-        points(scene.surface_samples(visible, 8)?),
-    ))
-}
-
 #[test]
 fn fast_path_equals_the_reference_voxel_for_voxel() -> TestResult {
     let scene = catalogue::head()?;
@@ -165,7 +148,8 @@ fn views_behind_the_hull_no_longer_tear_the_mirror_box() -> TestResult {
     let scene = catalogue::mirror()?;
     let cap = capture(&scene, 24)?;
     let grid = VoxelGrid::with_resolution(scene.bounds(), 64)?;
-    let (surface, visible) = truth(&scene, 100_000, 20_000)?;
+    let truth = scene.geometry_reference_of(100_000, 20_000)?;
+    let (surface, visible) = (truth.exposed, truth.visible);
     let score = |behind_hull| -> Result<_, Box<dyn std::error::Error>> {
         let params = ColoringParams {
             behind_hull,
@@ -218,7 +202,8 @@ fn lambertian_accuracy_and_completeness() -> TestResult {
     let cap = capture(&scene, 48)?;
     let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
     let out = voxel_coloring(&grid, &cap.views(true), &ColoringParams::default())?;
-    let (surface, visible) = truth(&scene, 300_000, 20_000)?;
+    let truth = scene.geometry_reference_of(300_000, 20_000)?;
+    let (surface, visible) = (truth.exposed, truth.visible);
     let score = geometry_score(&out.model, &surface, &visible);
     eprintln!("lambertian 128^3 x 48: {score:?}");
     assert!(score.accuracy_voxels <= 1.7, "{score:?}");
