@@ -297,6 +297,10 @@ pub fn evaluate_rig<R: EvalRig>(
         }
         None => None,
     };
+    let model = Measure {
+        geometry,
+        reference: reference.as_ref(),
+    };
     let mut out = Vec::new();
     // Ground truth per evaluated pan angle, rendered (or read) once for every checkpoint
     // of every strategy: most angles recur.
@@ -341,10 +345,6 @@ pub fn evaluate_rig<R: EvalRig>(
                 "{} {n} views: rendering novel views",
                 strategy.name()
             ));
-            let model = Measure {
-                geometry,
-                reference: reference.as_ref(),
-            };
             checkpoints.push(measure(rig, views, session, params, model, &mut truths)?);
         }
         out.push(StrategyEval {
