@@ -5,7 +5,9 @@ use std::time::Instant;
 
 use aibr_camera::{Aabb, Angle, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
-use aibr_consistency::{ConsistencyParams, PairScore, TurntableLimits, plan_next, score_pairs};
+use aibr_consistency::{
+    ConsistencyParams, PairScore, PlanParams, TurntableLimits, plan_next, score_pairs,
+};
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_voxel::{
     CarvingParams, ColoringParams, Reconstruction, View, VoxelGrid, check_cameras_above,
@@ -64,6 +66,9 @@ pub struct CaptureParams {
     /// Arcs scoring at or below this are consistent; when all are, capture stops (default 0:
     /// only the budget stops it).
     pub consistent_below: f64,
+    /// The planner ranks arcs by score times width to this power (default 3,
+    /// [`PlanParams::width_power`]).
+    pub width_power: f64,
 }
 
 impl Default for CaptureParams {
@@ -75,6 +80,7 @@ impl Default for CaptureParams {
             refine_every: 1,
             grid: 96,
             consistent_below: 0.0,
+            width_power: PlanParams::default().width_power,
         }
     }
 }
@@ -100,10 +106,16 @@ impl CaptureParams {
         if !(8..=512).contains(&self.grid) {
             return bad("grid", "must be between 8 and 512 voxels");
         }
-        if !(self.consistent_below >= 0.0 && self.consistent_below.is_finite()) {
-            return bad("consistent_below", "must be a finite score of 0 or more");
-        }
+        self.plan().validate()?;
         Ok(())
+    }
+
+    /// The planner's part.
+    pub fn plan(&self) -> PlanParams {
+        PlanParams {
+            consistent_below: self.consistent_below,
+            width_power: self.width_power,
+        }
     }
 }
 
@@ -440,7 +452,7 @@ pub fn capture<R: Turntable + FrameSource>(
                 must_refine = false;
             }
             let pans = session.pans();
-            let Some(next) = plan_next(&pans, &scores, &limits, params.consistent_below) else {
+            let Some(next) = plan_next(&pans, &scores, &limits, &params.plan())? else {
                 stopped_early = true;
                 break;
             };

@@ -53,6 +53,20 @@ pub enum Error {
         /// The checksum of the file.
         actual: u32,
     },
+    /// A session was to be continued with other parameters than it was captured with.
+    #[error(
+        "{path} was captured with {field} {recorded}, not {given}: continue it with the same options, or use another folder"
+    )]
+    ParametersDiffer {
+        /// The session folder.
+        path: PathBuf,
+        /// The field of `session.json` that differs (`rig`, `strategy`, `width_power`, ...).
+        field: &'static str,
+        /// Its value in the session.
+        recorded: String,
+        /// The value asked for.
+        given: String,
+    },
     /// A session exists where a new one was asked for.
     #[error("{0} already holds a session: pass --resume to continue it, or choose another folder")]
     SessionExists(PathBuf),

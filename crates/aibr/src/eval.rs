@@ -366,6 +366,7 @@ fn run<R: EvalRig>(
     let calibration = rig.eval_calibration()?;
     let mut session = if dir.join("session.json").exists() {
         let s = Session::open(dir)?;
+        s.check_parameters(spec, params)?;
         let pans: Vec<Angle> = s
             .file()
             .views

@@ -73,6 +73,29 @@ pub struct ParametersRecord {
     /// Arcs scoring at or below this are consistent (0: only the budget stops the capture).
     #[serde(default)]
     pub consistent_below: f64,
+    /// The planner's width power; 1 in files written before it was recorded, which were
+    /// planned with that weight.
+    #[serde(default = "ParametersRecord::width_power_before_recorded")]
+    pub width_power: f64,
+}
+
+impl ParametersRecord {
+    /// The record of `params`.
+    pub fn of(params: &crate::CaptureParams) -> Self {
+        ParametersRecord {
+            strategy: params.strategy.name().to_owned(),
+            initial: params.initial,
+            max: params.max,
+            refine_every: params.refine_every,
+            grid: params.grid,
+            consistent_below: params.consistent_below,
+            width_power: params.width_power,
+        }
+    }
+
+    fn width_power_before_recorded() -> f64 {
+        1.0
+    }
 }
 
 /// One view in `session.json`.
@@ -339,6 +362,52 @@ impl Session {
     /// The contents of `session.json`.
     pub fn file(&self) -> &SessionFile {
         &self.file
+    }
+
+    /// Refuses to continue this session on `rig` with `params` unless they are what it was
+    /// captured with: views planned under other parameters would be mixed with new ones.
+    /// The error names the first field that differs.
+    pub fn check_parameters(&self, rig: &str, params: &crate::CaptureParams) -> Result<()> {
+        let (file, given) = (self.file(), ParametersRecord::of(params));
+        let have = &file.parameters;
+        let fields = [
+            ("rig", file.rig.clone(), rig.to_owned()),
+            ("strategy", have.strategy.clone(), given.strategy),
+            (
+                "initial",
+                have.initial.to_string(),
+                given.initial.to_string(),
+            ),
+            ("max", have.max.to_string(), given.max.to_string()),
+            (
+                "refine_every",
+                have.refine_every.to_string(),
+                given.refine_every.to_string(),
+            ),
+            ("grid", have.grid.to_string(), given.grid.to_string()),
+            (
+                "consistent_below",
+                have.consistent_below.to_string(),
+                given.consistent_below.to_string(),
+            ),
+            (
+                "width_power",
+                have.width_power.to_string(),
+                given.width_power.to_string(),
+            ),
+        ];
+        match fields
+            .into_iter()
+            .find(|(_, recorded, given)| recorded != given)
+        {
+            None => Ok(()),
+            Some((field, recorded, given)) => Err(Error::ParametersDiffer {
+                path: self.dir().to_path_buf(),
+                field,
+                recorded,
+                given,
+            }),
+        }
     }
 
     /// The calibration.

@@ -123,6 +123,11 @@ struct CaptureArgs {
         allow_hyphen_values = true
     )]
     consistent_below: f64,
+    /// The planner ranks the arcs between neighbouring views by their score times their
+    /// angular width to this power: 1 follows the score's mass, higher powers split wide
+    /// arcs first unless a narrow one scores far worse (0 to 8).
+    #[arg(long, default_value_t = 3.0, value_name = "P")]
+    width_power: f64,
     /// The reconstruction volume: `scene` (the synthetic scene's true box), `auto` (estimated
     /// from the foreground of the initial views: the intersection of their viewing cones,
     /// with a margin), or a box `x0,y0,z0,x1,y1,z1` in metres in the turntable frame.
@@ -237,6 +242,11 @@ struct EvalArgs {
     /// Voxels along the longest edge while capturing.
     #[arg(long, default_value_t = 96)]
     capture_grid: usize,
+    /// The active strategy's planner ranks the arcs between neighbouring views by their score times their
+    /// angular width to this power: 1 follows the score's mass, higher powers split wide
+    /// arcs first unless a narrow one scores far worse (0 to 8).
+    #[arg(long, default_value_t = 3.0, value_name = "P")]
+    width_power: f64,
     /// Spacing of the evaluated pan angles, degrees (an angle within half a step, and within
     /// half a degree, of a captured view counts as captured and is skipped).
     #[arg(long, default_value_t = 1.0)]
@@ -768,30 +778,11 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
         refine_every: a.refine_every,
         grid: a.grid,
         consistent_below: a.consistent_below,
+        width_power: a.width_power,
     };
     let mut session = if a.resume {
         let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
-        let p = &s.file().parameters;
-        if s.file().rig != spec
-            || p.strategy != params.strategy.name()
-            || p.initial != params.initial
-            || p.max != params.max
-            || p.refine_every != params.refine_every
-            || p.grid != params.grid
-            || p.consistent_below != params.consistent_below
-        {
-            bail!(
-                "{} was captured on rig {} with --strategy {} --initial {} --max {} --refine-every {} --grid {} --consistent-below {}: resume with the same options",
-                a.out.display(),
-                s.file().rig,
-                p.strategy,
-                p.initial,
-                p.max,
-                p.refine_every,
-                p.grid,
-                p.consistent_below
-            );
-        }
+        s.check_parameters(spec, &params)?;
         s
     } else {
         aibr::new_session_with_volume(
@@ -956,6 +947,7 @@ fn eval(a: EvalArgs) -> Result<()> {
             initial: a.initial,
             max,
             grid: a.capture_grid,
+            width_power: a.width_power,
             ..CaptureParams::default()
         },
         checkpoints,

@@ -114,7 +114,11 @@ fn killed_capture_resumes_to_the_same_views() -> TestResult {
         .arg("--resume")
         .output()?;
     assert!(!wrong.status.success());
-    assert!(String::from_utf8_lossy(&wrong.stderr).contains("resume with the same options"));
+    let stderr = String::from_utf8_lossy(&wrong.stderr);
+    assert!(
+        stderr.contains("was captured with max 11, not 12") && stderr.contains("same options"),
+        "{stderr}"
+    );
     let status = aibr()
         .arg("capture")
         .args(SMALL)
@@ -317,6 +321,43 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
         .arg(&dir)
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("already holds a session"));
+
+    // A session written before the planner's width power was recorded was planned with
+    // width 1: it resumes with that, and is refused with the default.
+    let file = dir.join("session.json");
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&file)?)?;
+    json["parameters"]
+        .as_object_mut()
+        .ok_or("no parameters")?
+        .remove("width_power")
+        .ok_or("width_power not recorded")?;
+    std::fs::write(&file, serde_json::to_vec_pretty(&json)?)?;
+    let resume = |extra: &[&str]| {
+        aibr()
+            .arg("capture")
+            .args([
+                "--rig",
+                "sim:head",
+                "--initial",
+                "4",
+                "--max",
+                "4",
+                "--grid",
+                "16",
+            ])
+            .args(extra)
+            .arg("--out")
+            .arg(&dir)
+            .arg("--resume")
+            .output()
+    };
+    let out = resume(&[])?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("width_power 1, not 3"),
+        "{err}"
+    );
+    assert_success(&resume(&["--width-power", "1"])?);
 
     // A corrupt view: checksum mismatch, named.
     let view = dir.join("views/0002.png");
@@ -651,6 +692,23 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
             "{rec_acc} {rec_comp}"
         );
     }
+    // Its sessions were captured with the default planner: another width power on the same
+    // folder is refused, naming the folder and the field, and leaves them as they were.
+    let active = work.join("lambertian-active").join("session.json");
+    let before = std::fs::read(&active)?;
+    let other = aibr()
+        .args(small_eval)
+        .args(["--width-power", "2", "--work"])
+        .arg(&work)
+        .output()?;
+    let err = String::from_utf8_lossy(&other.stderr);
+    assert!(
+        !other.status.success()
+            && err.contains("lambertian-active")
+            && err.contains("width_power 3, not 2"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&active)?, before);
     let out = aibr()
         .args(["eval", "--max", "6", "--checkpoints", "7", "--work"])
         .arg(&work)

@@ -9,12 +9,13 @@
 //!   maximally inconsistent. Scores are summed over pixels, so a large inconsistent area
 //!   outranks a small one; per-pixel error maps come with them.
 //! - [`plan_next`]: split the worst pair at its middle angle, within the turntable's range,
-//!   quantised to its steps, never within a step of an existing view.
+//!   quantised to its steps, never within a step of an existing view; arcs are ranked by
+//!   score times width to a power ([`PlanParams`]).
 //! - [`foreground`]: masks from a dark background, or from the median backdrop of the views.
 //!
 //! ```
 //! use aibr_camera::{Angle, PanRange};
-//! use aibr_consistency::{PairScore, TurntableLimits, plan_next};
+//! use aibr_consistency::{PairScore, PlanParams, TurntableLimits, plan_next};
 //! use image::GrayImage;
 //!
 //! let limits = TurntableLimits::new(
@@ -27,7 +28,8 @@
 //!     error_a: GrayImage::new(1, 1), error_b: GrayImage::new(1, 1),
 //! };
 //! let scores = [score(0, 1, 10.0), score(1, 2, 900.0), score(2, 3, 40.0)];
-//! let next = plan_next(&pans, &scores, &limits, 0.0).ok_or("nothing to split")?;
+//! let next = plan_next(&pans, &scores, &limits, &PlanParams::default())?
+//!     .ok_or("nothing to split")?;
 //! assert_eq!(next.pair, (1, 2));
 //! assert!(next.pan.degrees().abs() < 0.06); // the middle of -50 and 50, in whole steps
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -44,4 +46,4 @@ pub mod planner;
 
 pub use error::{Error, Result};
 pub use estimator::{ConsistencyParams, PairScore, ring_pairs, score_pairs};
-pub use planner::{Proposal, TurntableLimits, plan_next};
+pub use planner::{PlanParams, Proposal, TurntableLimits, plan_next};

@@ -46,21 +46,70 @@ pub struct Proposal {
     pub score: f64,
 }
 
+/// How [`plan_next`] ranks the arcs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanParams {
+    /// Arcs scoring at or below this already render well and are never split; when every arc
+    /// does, the planner proposes nothing (default 0: only a perfectly consistent arc).
+    pub consistent_below: f64,
+    /// Arcs are ranked by their score times their angular width to this power (default 3;
+    /// between 0 and 8). Width 1 ranks by the score's mass over the arc; higher powers
+    /// split wide arcs first unless a narrow one scores far worse, which keeps the views
+    /// nearer to even, the measure a mean of per-view PSNRs rewards (`docs/consistency.md`).
+    pub width_power: f64,
+}
+
+impl Default for PlanParams {
+    fn default() -> Self {
+        PlanParams {
+            consistent_below: 0.0,
+            width_power: 3.0,
+        }
+    }
+}
+
+impl PlanParams {
+    /// The largest width power accepted.
+    pub const MAX_WIDTH_POWER: f64 = 8.0;
+
+    /// Rejects a negative or non-finite threshold, and a width power outside
+    /// `0..=MAX_WIDTH_POWER`.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.consistent_below >= 0.0 && self.consistent_below.is_finite()) {
+            return Err(Error::InvalidParameter {
+                name: "consistent_below",
+                value: self.consistent_below,
+                reason: "must be a finite score of 0 or more",
+            });
+        }
+        if !(0.0..=Self::MAX_WIDTH_POWER).contains(&self.width_power) {
+            return Err(Error::InvalidParameter {
+                name: "width_power",
+                value: self.width_power,
+                reason: "must be between 0 and 8",
+            });
+        }
+        Ok(())
+    }
+}
+
 /// Splits the worst arc at its middle angle.
 ///
-/// Arcs are ranked by their score times their angular width: an inconsistency the model
-/// cannot explain (the hole voxel coloring leaves on a mirror) shows in every view near it,
-/// however close, so the score alone would split the same arc again and again, while the
-/// rendering error over an arc grows with its width. Arcs scoring at or below
-/// `consistent_below` are skipped (they already render well); the first whose middle angle,
-/// quantised to the turntable's steps, lies inside the range and at least one step from every
-/// existing view is proposed. `None` when every arc is consistent or too short to split.
+/// Arcs are ranked by their score times their angular width (radians) to the power
+/// `params.width_power`: an inconsistency the model cannot explain (the hole voxel coloring
+/// leaves on a mirror) shows in every view near it, however close, so the score alone would
+/// split the same arc again and again, while the rendering error over an arc grows with its
+/// width. Arcs scoring at or below `params.consistent_below` are skipped (they already render
+/// well); the first whose middle angle, quantised to the turntable's steps, lies inside the
+/// range and at least one step from every existing view is proposed. `Ok(None)` when every
+/// arc is consistent or too short to split; an error when `params` are out of their domain.
 pub fn plan_next(
     pans: &[Angle],
     scores: &[PairScore],
     limits: &TurntableLimits,
-    consistent_below: f64,
-) -> Option<Proposal> {
+    params: &PlanParams,
+) -> Result<Option<Proposal>> {
+    params.validate()?;
     // The arc from a to b, in the pair's own order (b after a, a turn later across the wrap).
     let gap = |s: &PairScore| -> Option<f64> {
         let (pa, pb) = (pans.get(s.a)?, pans.get(s.b)?);
@@ -72,8 +121,8 @@ pub fn plan_next(
     };
     let mut order: Vec<(f64, &PairScore)> = scores
         .iter()
-        .filter(|s| s.score > consistent_below)
-        .filter_map(|s| gap(s).map(|g| (s.score * g, s)))
+        .filter(|s| s.score > params.consistent_below)
+        .filter_map(|s| gap(s).map(|g| (s.score * g.powf(params.width_power), s)))
         .collect();
     order.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.a.cmp(&y.1.a)));
     let step = limits.step.radians();
@@ -89,12 +138,12 @@ pub fn plan_next(
             .iter()
             .all(|p| middle.wrapped_difference(*p).radians().abs() >= step - 1e-9);
         if far_enough {
-            return Some(Proposal {
+            return Ok(Some(Proposal {
                 pan: middle,
                 pair: (s.a, s.b),
                 score: s.score,
-            });
+            }));
         }
     }
-    None
+    Ok(None)
 }

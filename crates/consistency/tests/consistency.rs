@@ -3,7 +3,8 @@
 use aibr_camera::{Angle, Camera, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
-    ConsistencyParams, Error, PairScore, TurntableLimits, plan_next, ring_pairs, score_pairs,
+    ConsistencyParams, Error, PairScore, PlanParams, TurntableLimits, plan_next, ring_pairs,
+    score_pairs,
 };
 use aibr_scene::{Frame, RenderOptions, catalogue};
 use aibr_voxel::{ColoringParams, View, VoxelGrid, VoxelModel, voxel_coloring};
@@ -201,22 +202,64 @@ fn planner_skips_short_and_consistent_arcs() -> TestResult {
     )?;
     let pans = [-10.0, -9.0, 0.0, 40.0].map(Angle::from_degrees);
     // The worst arc is one step long: nothing fits between; the next worst is split.
-    let scores = [pair(0, 1, 100.0), pair(1, 2, 50.0), pair(2, 3, 1.0)];
-    let p = plan_next(&pans, &scores, &limits, 0.0).ok_or("no proposal")?;
+    let scores = [pair(0, 1, 1e9), pair(1, 2, 5e3), pair(2, 3, 1.0)];
+    let plan = PlanParams::default();
+    let p = plan_next(&pans, &scores, &limits, &plan)?.ok_or("no proposal")?;
     assert_eq!(p.pair, (1, 2));
     assert!((p.pan.degrees() - -5.0).abs() < 1e-9 || (p.pan.degrees() - -4.0).abs() < 1e-9);
     // Everything consistent: nothing to do.
-    assert_eq!(plan_next(&pans, &scores, &limits, 100.0), None);
+    let strict = PlanParams {
+        consistent_below: 1e9,
+        ..plan
+    };
+    assert_eq!(plan_next(&pans, &scores, &limits, &strict)?, None);
     // The wrap-around arc of a full turn is split across +-180.
     let full = TurntableLimits::new(PanRange::full_turn(), Angle::from_degrees(1.0))?;
     let pans = [170.0, -170.0].map(Angle::from_degrees);
-    let p = plan_next(&pans, &[pair(0, 1, 5.0)], &full, 0.0).ok_or("no proposal")?;
+    let p = plan_next(&pans, &[pair(0, 1, 5.0)], &full, &plan)?.ok_or("no proposal")?;
     assert!(
         (p.pan.wrapped().degrees().abs() - 180.0).abs() < 1e-9,
         "{}",
         p.pan
     );
     assert!(TurntableLimits::new(PanRange::full_turn(), Angle::ZERO).is_err());
+    Ok(())
+}
+
+#[test]
+fn the_width_power_trades_score_against_width() -> TestResult {
+    let limits = TurntableLimits::new(
+        PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0))?,
+        Angle::from_degrees(1.0),
+    )?;
+    // A narrow arc (10 degrees) scoring five times a wide one (30 degrees).
+    let pans = [0.0, 10.0, 40.0].map(Angle::from_degrees);
+    let scores = [pair(0, 1, 500.0), pair(1, 2, 100.0)];
+    let split = |width_power| -> Result<(usize, usize), Box<dyn std::error::Error>> {
+        let plan = PlanParams {
+            consistent_below: 0.0,
+            width_power,
+        };
+        Ok(plan_next(&pans, &scores, &limits, &plan)?
+            .ok_or("no proposal")?
+            .pair)
+    };
+    // Score alone, or its mass over the arc (500 x 10 > 100 x 30): the narrow arc.
+    assert_eq!(split(0.0)?, (0, 1));
+    assert_eq!(split(1.0)?, (0, 1));
+    // Width squared and cubed (500 x 100 < 100 x 900): the wide one.
+    assert_eq!(split(2.0)?, (1, 2));
+    assert_eq!(split(3.0)?, (1, 2));
+    // Out of the domain: refused, naming the parameter.
+    for bad in [-1.0, 8.5, f64::NAN, f64::INFINITY] {
+        let err = split(bad).err().ok_or("accepted a bad width power")?;
+        assert!(err.to_string().contains("width_power"), "{err}");
+    }
+    let negative = PlanParams {
+        consistent_below: -1.0,
+        width_power: 3.0,
+    };
+    assert!(plan_next(&pans, &scores, &limits, &negative).is_err());
     Ok(())
 }
 
@@ -236,7 +279,9 @@ proptest! {
         let Ok(limits) = limits else { return Ok(()) };
         let pans: Vec<Angle> = degrees.iter().map(|d| Angle::from_degrees(*d)).collect();
         let scores: Vec<PairScore> = (0..pans.len() - 1).map(|i| pair(i, i + 1, raw_scores[i])).collect();
-        if let Some(p) = plan_next(&pans, &scores, &limits, 0.0) {
+        let planned = plan_next(&pans, &scores, &limits, &PlanParams::default());
+        prop_assert!(planned.is_ok());
+        if let Ok(Some(p)) = planned {
             prop_assert!(p.pan.radians() >= range.min().radians() && p.pan.radians() <= range.max().radians());
             let steps = p.pan.radians() / limits.step.radians();
             prop_assert!((steps - steps.round()).abs() < 1e-6);
