@@ -198,6 +198,24 @@ pub struct Checkpoint {
     /// not know its geometry (a replay). Renders depend on the geometry as much as on the
     /// views, and which views are taken changes the geometry (`docs/results.md`).
     pub geometry: Option<GeometryScore>,
+    /// The novel views at the angles that no strategy of the evaluation captured at this
+    /// checkpoint; `None` when only one strategy was evaluated (or no angle is common). Each strategy's mean is
+    /// otherwise over its own novel views, which leave out the angles it chose to capture, so
+    /// this is the like-for-like comparison.
+    pub common: Option<CommonAngles>,
+}
+
+/// A checkpoint's novel views restricted to the angles every evaluated strategy left out.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CommonAngles {
+    /// How many angles.
+    pub angles: usize,
+    /// Mean masked PSNR over them, dB.
+    pub mean_psnr: f64,
+    /// Masked PSNR of their mean squared error, dB.
+    pub pooled_psnr: f64,
+    /// Mean masked SSIM over them.
+    pub mean_ssim: f64,
 }
 
 /// The measurement of one novel view.
@@ -352,7 +370,52 @@ pub fn evaluate_rig<R: EvalRig>(
             checkpoints,
         });
     }
+    if out.len() > 1 {
+        add_common_angles(&mut out);
+    }
     Ok(out)
+}
+
+/// Fills every checkpoint's [`Checkpoint::common`]: the strategies' checkpoints at the same
+/// position share a view count, and their novel angles come from one evaluation grid, so an
+/// angle is the same bits in each.
+fn add_common_angles(results: &mut [StrategyEval]) {
+    let checkpoints = results
+        .iter()
+        .map(|r| r.checkpoints.len())
+        .min()
+        .unwrap_or(0);
+    for i in 0..checkpoints {
+        let mut common: Option<std::collections::HashSet<u64>> = None;
+        for r in results.iter() {
+            let pans = r.checkpoints[i]
+                .novel
+                .iter()
+                .map(|v| v.pan.radians().to_bits());
+            common = Some(match common {
+                None => pans.collect(),
+                Some(c) => pans.filter(|p| c.contains(p)).collect(),
+            });
+        }
+        let common = common.unwrap_or_default();
+        for r in results.iter_mut() {
+            let c = &mut r.checkpoints[i];
+            let views: Vec<&NovelView> = c
+                .novel
+                .iter()
+                .filter(|v| common.contains(&v.pan.radians().to_bits()))
+                .collect();
+            let n = views.len() as f64;
+            c.common = metrics::pooled_psnr(views.iter().map(|v| v.psnr)).map(|pooled_psnr| {
+                CommonAngles {
+                    angles: views.len(),
+                    mean_psnr: views.iter().map(|v| v.psnr).sum::<f64>() / n,
+                    pooled_psnr,
+                    mean_ssim: views.iter().map(|v| v.ssim).sum::<f64>() / n,
+                }
+            });
+        }
+    }
 }
 
 fn run<R: EvalRig>(
@@ -506,6 +569,7 @@ fn measure<R: EvalRig>(
         worst_arc: worst.1,
         novel,
         geometry: score,
+        common: None,
     })
 }
 

@@ -56,7 +56,8 @@ pub use capture::{
 };
 pub use error::{Error, Result};
 pub use eval::{
-    Checkpoint, EvalModel, EvalParams, EvalRig, NovelView, StrategyEval, evaluate, evaluate_rig,
+    Checkpoint, CommonAngles, EvalModel, EvalParams, EvalRig, NovelView, StrategyEval, evaluate,
+    evaluate_rig,
 };
 pub use ptu_rig::PtuTurntable;
 pub use replay::ReplayRig;

@@ -481,7 +481,7 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     }
 
     let mut table = String::from(
-        "<table><tr><th>strategy</th><th>views</th><th>mean PSNR (dB)</th><th>pooled PSNR (dB)</th><th>mean SSIM</th><th>worst arc (dB)</th><th>worst arc (degrees)</th><th>model accuracy (voxels)</th><th>model completeness</th></tr>\n",
+        "<table><tr><th>strategy</th><th>views</th><th>mean PSNR (dB)</th><th>pooled PSNR (dB)</th><th>mean SSIM</th><th>worst arc (dB)</th><th>worst arc (degrees)</th><th>model accuracy (voxels)</th><th>model completeness</th><th>mean PSNR at the angles neither captured (dB)</th></tr>\n",
     );
     for r in &results {
         for c in &r.checkpoints {
@@ -491,9 +491,12 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
                     format!("{:.1}%", 100.0 * g.completeness),
                 )
             });
+            let common = c.common.map_or("-".into(), |k| {
+                format!("{:.2} ({} angles)", k.mean_psnr, k.angles)
+            });
             writeln!(
                 table,
-                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:.3}</td><td>{:.2}</td><td>{:.1} to {:.1}</td><td>{accuracy}</td><td>{completeness}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.2}</td><td>{:.3}</td><td>{:.2}</td><td>{:.1} to {:.1}</td><td>{accuracy}</td><td>{completeness}</td><td>{common}</td></tr>",
                 r.strategy.name(),
                 c.views,
                 c.mean_psnr,

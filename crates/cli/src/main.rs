@@ -126,7 +126,12 @@ struct CaptureArgs {
     /// The planner ranks the arcs between neighbouring views by their score times their
     /// angular width to this power: 1 follows the score's mass, higher powers split wide
     /// arcs first unless a narrow one scores far worse (0 to 8).
-    #[arg(long, default_value_t = 3.0, value_name = "P")]
+    #[arg(
+        long,
+        default_value_t = CaptureParams::default().width_power,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
     width_power: f64,
     /// The reconstruction volume: `scene` (the synthetic scene's true box), `auto` (estimated
     /// from the foreground of the initial views: the intersection of their viewing cones,
@@ -242,10 +247,15 @@ struct EvalArgs {
     /// Voxels along the longest edge while capturing.
     #[arg(long, default_value_t = 96)]
     capture_grid: usize,
-    /// The active strategy's planner ranks the arcs between neighbouring views by their score times their
-    /// angular width to this power: 1 follows the score's mass, higher powers split wide
-    /// arcs first unless a narrow one scores far worse (0 to 8).
-    #[arg(long, default_value_t = 3.0, value_name = "P")]
+    /// The active strategy's planner ranks the arcs between neighbouring views by their
+    /// score times their angular width to this power: 1 follows the score's mass, higher
+    /// powers split wide arcs first unless a narrow one scores far worse (0 to 8).
+    #[arg(
+        long,
+        default_value_t = CaptureParams::default().width_power,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
     width_power: f64,
     /// Spacing of the evaluated pan angles, degrees (an angle within half a step, and within
     /// half a degree, of a captured view counts as captured and is skipped).
@@ -1003,6 +1013,12 @@ fn eval(a: EvalArgs) -> Result<()> {
                             "completeness": g.completeness,
                             "surface_voxels": g.surface_voxels,
                         })),
+                        "common_angles": c.common.map(|k| serde_json::json!({
+                            "angles": k.angles,
+                            "mean_masked_psnr_db": k.mean_psnr,
+                            "pooled_masked_psnr_db": k.pooled_psnr,
+                            "mean_masked_ssim": k.mean_ssim,
+                        })),
                         "novel_views": c.novel.iter().map(|v| serde_json::json!({
                             "pan_deg": v.pan.degrees(),
                             "masked_psnr_db": v.psnr,
@@ -1029,14 +1045,15 @@ fn eval(a: EvalArgs) -> Result<()> {
 /// The short table of an evaluation: one line per strategy and checkpoint.
 fn print_eval_table(results: &[aibr::StrategyEval]) {
     println!(
-        "{:<8} {:>5} {:>12} {:>14} {:>8} {:>16} {:>20}",
+        "{:<8} {:>5} {:>12} {:>14} {:>8} {:>16} {:>20} {:>18}",
         "strategy",
         "views",
         "PSNR (dB)",
         "pooled (dB)",
         "SSIM",
         "worst arc (dB)",
-        "geometry (vox / %)"
+        "geometry (vox / %)",
+        "common (dB / n)"
     );
     for r in results {
         for c in &r.checkpoints {
@@ -1044,15 +1061,20 @@ fn print_eval_table(results: &[aibr::StrategyEval]) {
             let geometry = c.geometry.map_or("-".to_string(), |g| {
                 format!("{:.2} / {:.1}", g.accuracy_voxels, 100.0 * g.completeness)
             });
+            // The mean over the angles no strategy captured, and how many there are.
+            let common = c.common.map_or("-".to_string(), |k| {
+                format!("{:.2} / {}", k.mean_psnr, k.angles)
+            });
             println!(
-                "{:<8} {:>5} {:>12.2} {:>14.2} {:>8.3} {:>16.2} {:>20}",
+                "{:<8} {:>5} {:>12.2} {:>14.2} {:>8.3} {:>16.2} {:>20} {:>18}",
                 r.strategy.name(),
                 c.views,
                 c.mean_psnr,
                 c.pooled_psnr,
                 c.mean_ssim,
                 c.worst_arc_psnr,
-                geometry
+                geometry,
+                common
             );
         }
     }

@@ -573,6 +573,22 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
         .arg(temp("negative"))
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("consistent_below"));
+    // A width power out of its domain is refused before a session folder is made.
+    for bad in ["-1", "9", "NaN"] {
+        let folder = temp("width");
+        let out = aibr()
+            .arg("capture")
+            .args(["--width-power", bad])
+            .arg("--out")
+            .arg(&folder)
+            .output()?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains("width_power"),
+            "{err}"
+        );
+        assert!(!folder.exists());
+    }
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
@@ -642,6 +658,37 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
             assert!(pooled <= psnr + 1e-9);
             let pans: Vec<f64> = novel.iter().filter_map(|v| v["pan_deg"].as_f64()).collect();
             assert!(pans.windows(2).all(|w| w[0] < w[1]), "{pans:?}");
+        }
+    }
+    // Per checkpoint, both strategies report the same angles neither captured, and their
+    // means over exactly those angles.
+    let novel_at = |r: &serde_json::Value, i: usize| -> Vec<(f64, f64)> {
+        r["checkpoints"][i]["novel_views"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|v| Some((v["pan_deg"].as_f64()?, v["masked_psnr_db"].as_f64()?)))
+            .collect()
+    };
+    for i in 0..2 {
+        let (a, u) = (novel_at(&results[0], i), novel_at(&results[1], i));
+        let common: Vec<f64> = a
+            .iter()
+            .filter(|(p, _)| u.iter().any(|(q, _)| q == p))
+            .map(|(p, _)| *p)
+            .collect();
+        assert!(!common.is_empty());
+        for (r, views) in [(&results[0], &a), (&results[1], &u)] {
+            let k = &r["checkpoints"][i]["common_angles"];
+            assert_eq!(k["angles"].as_u64(), Some(common.len() as u64), "{k}");
+            let mean = views
+                .iter()
+                .filter(|(p, _)| common.contains(p))
+                .map(|(_, psnr)| psnr)
+                .sum::<f64>()
+                / common.len() as f64;
+            let reported = k["mean_masked_psnr_db"].as_f64().ok_or("no common mean")?;
+            assert!((reported - mean).abs() < 1e-9, "{reported} vs {mean}");
         }
     }
     // The same sessions rendered from the true geometry: the views are the same (the capture
