@@ -123,16 +123,8 @@ struct CaptureArgs {
         allow_hyphen_values = true
     )]
     consistent_below: f64,
-    /// The planner ranks the arcs between neighbouring views by their score times their
-    /// angular width to this power: 1 follows the score's mass, higher powers split wide
-    /// arcs first unless a narrow one scores far worse (0 to 8).
-    #[arg(
-        long,
-        default_value_t = CaptureParams::default().width_power,
-        value_name = "P",
-        allow_hyphen_values = true
-    )]
-    width_power: f64,
+    #[command(flatten)]
+    plan: PlanArgs,
     /// The reconstruction volume: `scene` (the synthetic scene's true box), `auto` (estimated
     /// from the foreground of the initial views: the intersection of their viewing cones,
     /// with a margin), or a box `x0,y0,z0,x1,y1,z1` in metres in the turntable frame.
@@ -216,6 +208,21 @@ enum OnOff {
     Off,
 }
 
+/// How the active planner ranks arcs (`aibr capture` and `aibr eval`).
+#[derive(clap::Args)]
+struct PlanArgs {
+    /// The active planner ranks the arcs between neighbouring views by their score times
+    /// their angular width to this power: 1 follows the score's mass, higher powers split
+    /// wide arcs first unless a narrow one scores far worse (0 to 8).
+    #[arg(
+        long,
+        default_value_t = CaptureParams::default().width_power,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
+    width_power: f64,
+}
+
 #[derive(clap::Args)]
 struct EvalArgs {
     /// The rig: sim:SCENE (the truth is the scene, rendered at every uncaptured angle), or
@@ -247,16 +254,8 @@ struct EvalArgs {
     /// Voxels along the longest edge while capturing.
     #[arg(long, default_value_t = 96)]
     capture_grid: usize,
-    /// The active strategy's planner ranks the arcs between neighbouring views by their
-    /// score times their angular width to this power: 1 follows the score's mass, higher
-    /// powers split wide arcs first unless a narrow one scores far worse (0 to 8).
-    #[arg(
-        long,
-        default_value_t = CaptureParams::default().width_power,
-        value_name = "P",
-        allow_hyphen_values = true
-    )]
-    width_power: f64,
+    #[command(flatten)]
+    plan: PlanArgs,
     /// Spacing of the evaluated pan angles, degrees (an angle within half a step, and within
     /// half a degree, of a captured view counts as captured and is skipped).
     #[arg(long, default_value_t = 1.0)]
@@ -788,7 +787,7 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
         refine_every: a.refine_every,
         grid: a.grid,
         consistent_below: a.consistent_below,
-        width_power: a.width_power,
+        width_power: a.plan.width_power,
     };
     let mut session = if a.resume {
         let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
@@ -957,7 +956,7 @@ fn eval(a: EvalArgs) -> Result<()> {
             initial: a.initial,
             max,
             grid: a.capture_grid,
-            width_power: a.width_power,
+            width_power: a.plan.width_power,
             ..CaptureParams::default()
         },
         checkpoints,

@@ -300,19 +300,17 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
     assert!(String::from_utf8_lossy(&out.stderr).contains("is not an aibr session"));
 
     let dir = temp("bad");
-    capture_ok(
-        &[
-            "--rig",
-            "sim:head",
-            "--initial",
-            "4",
-            "--max",
-            "4",
-            "--grid",
-            "16",
-        ],
-        &dir,
-    )?;
+    let options = [
+        "--rig",
+        "sim:head",
+        "--initial",
+        "4",
+        "--max",
+        "4",
+        "--grid",
+        "16",
+    ];
+    capture_ok(&options, &dir)?;
     // A new capture into it is refused.
     let out = aibr()
         .arg("capture")
@@ -335,16 +333,7 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
     let resume = |extra: &[&str]| {
         aibr()
             .arg("capture")
-            .args([
-                "--rig",
-                "sim:head",
-                "--initial",
-                "4",
-                "--max",
-                "4",
-                "--grid",
-                "16",
-            ])
+            .args(options)
             .args(extra)
             .arg("--out")
             .arg(&dir)

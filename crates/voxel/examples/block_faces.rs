@@ -11,9 +11,11 @@
 //! Figures in `docs/results.md` ("Session 22: a face comes out fat unless a view sees it
 //! edge-on").
 
+mod common;
+
 use aibr_scene::{RenderOptions, catalogue};
 use aibr_voxel::metrics::PointIndex;
-use aibr_voxel::{ColoringParams, View, VoxelGrid, VoxelModel, visual_hull, voxel_coloring};
+use aibr_voxel::{ColoringParams, VoxelGrid, VoxelModel, visual_hull, voxel_coloring};
 
 /// Half the width of `lambertian`'s base block (`catalogue::lambertian`), metres.
 const HALF_WIDTH: f64 = 0.065;
@@ -29,27 +31,13 @@ const FACES: [(&str, [f64; 2]); 4] = [
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let views_n: usize = std::env::args().nth(1).map_or(Ok(23), |a| a.parse())?;
     let scene = catalogue::lambertian()?;
-    let pans = match std::env::var("PANS") {
-        Ok(list) => list
-            .split(',')
-            .map(|d| d.trim().parse().map(aibr_camera::Angle::from_degrees))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| format!("PANS: {e} in {list:?}"))?,
-        Err(_) => scene.rig.uniform_pans(views_n),
-    };
+    let pans = common::pans(&scene, views_n)?;
     let options = RenderOptions {
         noise_sigma: 1.0 / 255.0,
         seed: 1,
     };
     let shots = scene.shoot(&pans, &options)?;
-    let views: Vec<View<'_>> = shots
-        .iter()
-        .map(|s| View {
-            camera: &s.camera,
-            image: &s.image,
-            mask: Some(&s.frame.mask),
-        })
-        .collect();
+    let views = common::views(&shots);
     let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
     let size = grid.voxel_size();
     let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;

@@ -8,9 +8,11 @@
 //! comma-separated list of pan angles in degrees, replaces the uniform views (for instance
 //! the `pans_deg` of an `aibr eval --json` checkpoint; `VIEWS` is then ignored).
 
+mod common;
+
 use aibr_scene::{RenderOptions, catalogue};
 use aibr_voxel::metrics::geometry_score;
-use aibr_voxel::{ColoringParams, Criterion, View, VoxelGrid, voxel_coloring};
+use aibr_voxel::{ColoringParams, Criterion, VoxelGrid, voxel_coloring};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -34,23 +36,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             noise_sigma: 1.0 / 255.0,
             seed: 1,
         };
-        let pans = match std::env::var("PANS") {
-            Ok(list) => list
-                .split(',')
-                .map(|d| d.trim().parse().map(aibr_camera::Angle::from_degrees))
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(|e| format!("PANS: {e} in {list:?}"))?,
-            Err(_) => scene.rig.uniform_pans(n_views),
-        };
+        let pans = common::pans(&scene, n_views)?;
         let shots = scene.shoot(&pans, &options)?;
-        let views: Vec<View<'_>> = shots
-            .iter()
-            .map(|s| View {
-                camera: &s.camera,
-                image: &s.image,
-                mask: Some(&s.frame.mask),
-            })
-            .collect();
+        let views = common::views(&shots);
         let reference = scene.geometry_reference()?;
         let grid = VoxelGrid::with_resolution(scene.bounds(), resolution)?;
         let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
