@@ -44,7 +44,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n: usize = views.parse()?;
     let session = Session::open(Path::new(dir))?;
     let loaded = session.load_views()?;
-    let first = loaded.get(..n).ok_or(format!("{dir} holds fewer than {n} views"))?;
+    let first = loaded
+        .get(..n)
+        .ok_or(format!("{dir} holds fewer than {n} views"))?;
     let (pans, scores) = aibr::pair_scores(&session, first, 96)?;
 
     let eval: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(json)?)?;
