@@ -199,9 +199,9 @@ pub struct Checkpoint {
     /// views, and which views are taken changes the geometry (`docs/results.md`).
     pub geometry: Option<GeometryScore>,
     /// The novel views at the angles that no strategy of the evaluation captured at this
-    /// checkpoint; `None` when only one strategy was evaluated (or no angle is common). Each strategy's mean is
-    /// otherwise over its own novel views, which leave out the angles it chose to capture, so
-    /// this is the like-for-like comparison.
+    /// checkpoint; `None` when only one strategy was evaluated (or no angle is common). Each
+    /// strategy's mean is otherwise over its own novel views, which leave out the angles it
+    /// chose to capture, so this is the like-for-like comparison.
     pub common: Option<CommonAngles>,
 }
 
