@@ -405,17 +405,27 @@ fn add_common_angles(results: &mut [StrategyEval]) {
                 .iter()
                 .filter(|v| common.contains(&v.pan.radians().to_bits()))
                 .collect();
-            let n = views.len() as f64;
-            c.common = metrics::pooled_psnr(views.iter().map(|v| v.psnr)).map(|pooled_psnr| {
-                CommonAngles {
-                    angles: views.len(),
-                    mean_psnr: views.iter().map(|v| v.psnr).sum::<f64>() / n,
-                    pooled_psnr,
-                    mean_ssim: views.iter().map(|v| v.ssim).sum::<f64>() / n,
-                }
-            });
+            c.common = CommonAngles::of(&views);
         }
     }
+}
+
+impl CommonAngles {
+    /// The figures of `views` (a checkpoint's reports the same over all its novel views);
+    /// `None` for none.
+    fn of(views: &[&NovelView]) -> Option<Self> {
+        Some(CommonAngles {
+            angles: views.len(),
+            mean_psnr: mean_of(views, |v| v.psnr),
+            pooled_psnr: metrics::pooled_psnr(views.iter().map(|v| v.psnr))?,
+            mean_ssim: mean_of(views, |v| v.ssim),
+        })
+    }
+}
+
+/// The mean of `f` over `views` (0 for none).
+fn mean_of(views: &[&NovelView], f: fn(&NovelView) -> f64) -> f64 {
+    views.iter().map(|v| f(v)).sum::<f64>() / views.len().max(1) as f64
 }
 
 fn run<R: EvalRig>(
@@ -539,9 +549,6 @@ fn measure<R: EvalRig>(
         novel.push(NovelView { pan, psnr, ssim });
     }
     novel.sort_by(|a, b| a.pan.radians().total_cmp(&b.pan.radians()));
-    let mean = |views: &[&NovelView], f: fn(&NovelView) -> f64| {
-        views.iter().map(|v| f(v)).sum::<f64>() / views.len().max(1) as f64
-    };
     // The arc between neighbouring views whose novel views render worst on average.
     let mut worst = (f64::INFINITY, (Angle::ZERO, Angle::ZERO));
     for w in pans.windows(2) {
@@ -552,19 +559,20 @@ fn measure<R: EvalRig>(
         if inside.is_empty() {
             continue;
         }
-        let arc = mean(&inside, |v| v.psnr);
+        let arc = mean_of(&inside, |v| v.psnr);
         if arc < worst.0 {
             worst = (arc, (w[0], w[1]));
         }
     }
-    let all: Vec<&NovelView> = novel.iter().collect();
+    // Over all the novel views: the figures `CommonAngles` gives a subset of them (0 for none).
+    let all = CommonAngles::of(&novel.iter().collect::<Vec<_>>());
     Ok(Checkpoint {
         views: views.len(),
         pans,
         evaluated: novel.len(),
-        mean_psnr: mean(&all, |v| v.psnr),
-        pooled_psnr: metrics::pooled_psnr(novel.iter().map(|v| v.psnr)).unwrap_or(0.0),
-        mean_ssim: mean(&all, |v| v.ssim),
+        mean_psnr: all.map_or(0.0, |a| a.mean_psnr),
+        pooled_psnr: all.map_or(0.0, |a| a.pooled_psnr),
+        mean_ssim: all.map_or(0.0, |a| a.mean_ssim),
         worst_arc_psnr: worst.0,
         worst_arc: worst.1,
         novel,
