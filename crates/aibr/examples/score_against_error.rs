@@ -13,6 +13,8 @@
 use std::path::Path;
 
 use aibr::Session;
+use aibr::consistency::PlanParams;
+use aibr::render::metrics::pooled_psnr;
 
 /// Ranks of `xs` (0 for the smallest; ties in input order).
 fn ranks(xs: &[f64]) -> Vec<f64> {
@@ -67,28 +69,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     println!("| arc (degrees) | score | score x width^3 | novel views | their PSNR (dB) |");
     println!("|---|---|---|---|---|");
+    // The planner's ranking key: score times width to its default power.
+    let power = PlanParams::default().width_power;
     let (mut keys, mut raw, mut errors) = (Vec::new(), Vec::new(), Vec::new());
     for s in &scores {
         let (a, b) = (pans[s.a].degrees(), pans[s.b].degrees());
-        let inside: Vec<f64> = novel
+        let inside = novel
             .iter()
             .filter(|(p, _)| *p > a && *p < b)
-            .map(|(_, psnr)| 10f64.powf(-psnr / 10.0))
-            .collect();
-        if b <= a || inside.is_empty() {
-            continue; // the opening of the range, or nothing rendered inside
-        }
-        let mse = inside.iter().sum::<f64>() / inside.len() as f64;
-        let key = s.score * (b - a).to_radians().powi(3);
+            .map(|(_, psnr)| *psnr);
+        // The PSNR of the arc's mean squared error; none for the opening of the range or an
+        // arc with nothing rendered inside.
+        let (Some(pooled), true) = (pooled_psnr(inside.clone()), b > a) else {
+            continue;
+        };
+        let key = s.score * (b - a).to_radians().powf(power);
         println!(
-            "| {a:.1} to {b:.1} | {:.0} | {key:.1} | {} | {:.2} |",
+            "| {a:.1} to {b:.1} | {:.0} | {key:.1} | {} | {pooled:.2} |",
             s.score,
-            inside.len(),
-            -10.0 * mse.log10()
+            inside.count()
         );
         keys.push(key);
         raw.push(s.score);
-        errors.push(mse);
+        errors.push(-pooled); // ranks as the mean squared error does
     }
     println!(
         "rank correlation with the arcs' mean squared error ({} arcs): score x width^3 {:.2}, score alone {:.2}",
