@@ -194,12 +194,17 @@ fn pair(a: usize, b: usize, score: f64) -> PairScore {
     }
 }
 
-#[test]
-fn planner_skips_short_and_consistent_arcs() -> TestResult {
-    let limits = TurntableLimits::new(
+/// A PTU-46's pan range (+-159 degrees) in whole-degree steps.
+fn ptu_range_in_degrees() -> Result<TurntableLimits, Box<dyn std::error::Error>> {
+    Ok(TurntableLimits::new(
         PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0))?,
         Angle::from_degrees(1.0),
-    )?;
+    )?)
+}
+
+#[test]
+fn planner_skips_short_and_consistent_arcs() -> TestResult {
+    let limits = ptu_range_in_degrees()?;
     let pans = [-10.0, -9.0, 0.0, 40.0].map(Angle::from_degrees);
     // The worst arc is one step long: nothing fits between; the next worst is split.
     let scores = [pair(0, 1, 1e9), pair(1, 2, 5e3), pair(2, 3, 1.0)];
@@ -228,10 +233,7 @@ fn planner_skips_short_and_consistent_arcs() -> TestResult {
 
 #[test]
 fn the_width_power_trades_score_against_width() -> TestResult {
-    let limits = TurntableLimits::new(
-        PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0))?,
-        Angle::from_degrees(1.0),
-    )?;
+    let limits = ptu_range_in_degrees()?;
     // A narrow arc (10 degrees) scoring five times a wide one (30 degrees).
     let pans = [0.0, 10.0, 40.0].map(Angle::from_degrees);
     let scores = [pair(0, 1, 500.0), pair(1, 2, 100.0)];
