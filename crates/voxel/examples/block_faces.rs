@@ -13,7 +13,7 @@
 
 mod common;
 
-use aibr_scene::{RenderOptions, catalogue};
+use aibr_scene::catalogue;
 use aibr_voxel::metrics::PointIndex;
 use aibr_voxel::{ColoringParams, VoxelGrid, VoxelModel, visual_hull, voxel_coloring};
 
@@ -32,11 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let views_n: usize = std::env::args().nth(1).map_or(Ok(23), |a| a.parse())?;
     let scene = catalogue::lambertian()?;
     let pans = common::pans(&scene, views_n)?;
-    let options = RenderOptions {
-        noise_sigma: 1.0 / 255.0,
-        seed: 1,
-    };
-    let shots = scene.shoot(&pans, &options)?;
+    let shots = common::shoot(&scene, &pans)?;
     let views = common::views(&shots);
     let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
     let size = grid.voxel_size();

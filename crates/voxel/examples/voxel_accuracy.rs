@@ -10,7 +10,7 @@
 
 mod common;
 
-use aibr_scene::{RenderOptions, catalogue};
+use aibr_scene::catalogue;
 use aibr_voxel::metrics::geometry_score;
 use aibr_voxel::{ColoringParams, Criterion, VoxelGrid, voxel_coloring};
 
@@ -32,12 +32,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|");
     for name in &names {
         let scene = catalogue::by_name(name)?;
-        let options = RenderOptions {
-            noise_sigma: 1.0 / 255.0,
-            seed: 1,
-        };
         let pans = common::pans(&scene, n_views)?;
-        let shots = scene.shoot(&pans, &options)?;
+        let shots = common::shoot(&scene, &pans)?;
         let views = common::views(&shots);
         let reference = scene.geometry_reference()?;
         let grid = VoxelGrid::with_resolution(scene.bounds(), resolution)?;
