@@ -271,7 +271,9 @@ struct EvalArgs {
     work: PathBuf,
     /// Print a machine-readable summary on standard output. On a synthetic rig each
     /// checkpoint also scores the model rendered from against the scene's true surface
-    /// ("geometry": accuracy in voxels, completeness; null on a replay rig).
+    /// ("geometry": accuracy in voxels, completeness; null on a replay rig); with both
+    /// strategies, "common_angles" holds each checkpoint's figures over only the angles
+    /// neither captured.
     #[arg(long)]
     json: bool,
 }
