@@ -40,25 +40,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hull = visual_hull(&grid, &views)?;
     let truth = PointIndex::new(&scene.geometry_reference()?.exposed, size);
     let far = |v: &[usize; 3]| truth.nearest_distance(&grid.centre(*v)) / size > 1.5;
+    // The face of the block a voxel lies on, as an index into FACES.
     let face_of = |v: &[usize; 3]| {
         let p = grid.centre(*v);
-        let i = if p.x.abs() > p.y.abs() {
+        if p.x.abs() > p.y.abs() {
             usize::from(p.x < 0.0)
         } else {
             2 + usize::from(p.y < 0.0)
-        };
-        FACES[i].0
-    };
-    // Far surface voxels per face among the lowest layers: (surface, far).
-    let count = |m: &VoxelModel| {
-        let mut per_face = FACES.map(|(f, _)| (f, 0usize, 0usize));
-        for v in m.surface_voxels().iter().filter(|v| v[2] < LAYERS) {
-            if let Some(e) = per_face.iter_mut().find(|e| e.0 == face_of(v)) {
-                e.1 += 1;
-                e.2 += usize::from(far(v));
-            }
         }
-        per_face
+    };
+    // Each surface voxel with whether it lies far from the truth, distances taken once.
+    let judged = |m: &VoxelModel| -> Vec<([usize; 3], bool)> {
+        m.surface_voxels()
+            .into_iter()
+            .map(|v| (v, far(&v)))
+            .collect()
+    };
+    let (model_surface, hull_surface) = (judged(&model), judged(&hull));
+    // Per face, among the lowest layers: (surface voxels, far ones).
+    let per_face = |surface: &[([usize; 3], bool)]| {
+        let mut counts = [(0usize, 0usize); 4];
+        for (v, is_far) in surface.iter().filter(|(v, _)| v[2] < LAYERS) {
+            let c = &mut counts[face_of(v)];
+            c.0 += 1;
+            c.1 += usize::from(*is_far);
+        }
+        counts
     };
     let [nx, ny, _] = grid.dims();
     let on_hull_boundary = |&[i, j, k]: &[usize; 3]| {
@@ -71,7 +78,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             })
     };
-    let far_voxels: Vec<[usize; 3]> = model.surface_voxels().into_iter().filter(far).collect();
+    let far_voxels: Vec<&[usize; 3]> = model_surface
+        .iter()
+        .filter(|(_, is_far)| *is_far)
+        .map(|(v, _)| v)
+        .collect();
     let boundary = far_voxels.iter().filter(|v| on_hull_boundary(v)).count();
     println!(
         "{} views: {} model surface voxels further than 1.5 voxels from the truth, {} of them on the hull's boundary",
@@ -83,8 +94,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| face | model: far / surface | hull: far / surface | nearest camera to the face's plane (mm, pan) |"
     );
     println!("|---|---|---|---|");
-    for ((face, m_surf, m_far), (_, h_surf, h_far)) in count(&model).into_iter().zip(count(&hull)) {
-        let normal = FACES.iter().find(|f| f.0 == face).map_or([0.0; 2], |f| f.1);
+    let (model_faces, hull_faces) = (per_face(&model_surface), per_face(&hull_surface));
+    for (((face, normal), (m_surf, m_far)), (h_surf, h_far)) in
+        FACES.iter().zip(model_faces).zip(hull_faces)
+    {
         let nearest = shots
             .iter()
             .zip(&pans)
