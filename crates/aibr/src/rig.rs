@@ -106,9 +106,18 @@ impl Calibration {
 
 /// A synthetic camera: a catalogue scene rendered, with sensor noise, at the angle the
 /// turntable reports.
+///
+/// The scene may stand turned on the turntable (`NAME@DEGREES`, e.g. `mirror@20`): the
+/// object is then turned that far about the pan axis from where the catalogue puts it, so
+/// that at every reported pan the camera, the lights and the studio see it as the catalogue
+/// scene at that pan plus the turn. Its geometry stays in the scene's world frame (only the
+/// calibration's pose at pan 0 moves), so it is measured against the same truth; what
+/// changes is where the object's faces lie against the pan range's ends and the lattices of
+/// uniform capture.
 pub struct SceneCamera {
     scene: Scene,
     name: String,
+    turn: Angle,
     pan: Angle,
     /// The angle whose multiples seed the noise (a frame's noise depends on its step).
     seed_step: Angle,
@@ -125,13 +134,32 @@ impl std::fmt::Debug for SceneCamera {
 }
 
 impl SceneCamera {
-    /// The camera of catalogue scene `name`, with 1 grey level of sensor noise; each frame's
-    /// noise is seeded by its pan angle in multiples of `seed_step`, so a run is repeatable.
+    /// The camera of catalogue scene `name` (`SCENE` or `SCENE@DEGREES`, the scene turned on
+    /// the turntable by that many degrees, -180 to 180), with 1 grey level of sensor noise;
+    /// each frame's noise is seeded by its pan angle in multiples of `seed_step`, so a run is
+    /// repeatable.
     pub fn new(name: &str, seed_step: Angle) -> Result<Self> {
-        let scene = aibr_scene::catalogue::by_name(name)?;
+        let (scene_name, turn) = match name.split_once('@') {
+            None => (name, Angle::ZERO),
+            Some((scene_name, degrees)) => {
+                let turn = degrees
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|d| (-180.0..=180.0).contains(d))
+                    .ok_or_else(|| Error::InvalidParameter {
+                        name: "scene turn",
+                        reason: format!(
+                            "{degrees:?} in {name:?} is not a number of degrees from -180 to 180"
+                        ),
+                    })?;
+                (scene_name, Angle::from_degrees(turn))
+            }
+        };
+        let scene = aibr_scene::catalogue::by_name(scene_name)?;
         Ok(SceneCamera {
             scene,
             name: name.to_owned(),
+            turn,
             pan: Angle::ZERO,
             seed_step,
             options: RenderOptions {
@@ -141,17 +169,26 @@ impl SceneCamera {
         })
     }
 
-    /// Parses `sim:SCENE`.
+    /// Parses `sim:SCENE` or `sim:SCENE@DEGREES` (see [`SceneCamera::new`]).
     pub fn from_spec(spec: &str, seed_step: Angle) -> Result<Self> {
         let name = spec
             .strip_prefix("sim:")
             .ok_or_else(|| Error::UnknownRig(spec.to_owned()))?;
-        Self::new(name, seed_step).map_err(|_| Error::UnknownRig(spec.to_owned()))
+        Self::new(name, seed_step).map_err(|e| match e {
+            // A bad turn names itself; anything else is a scene not in the catalogue.
+            Error::InvalidParameter { .. } => e,
+            _ => Error::UnknownRig(spec.to_owned()),
+        })
     }
 
-    /// The scene's name.
+    /// The scene's name as given (with its turn, if any).
     pub fn scene_name(&self) -> &str {
         &self.name
+    }
+
+    /// How far the scene stands turned on the turntable.
+    pub fn turn(&self) -> Angle {
+        self.turn
     }
 
     /// The scene.
@@ -161,16 +198,20 @@ impl SceneCamera {
 
     /// The camera's calibration (exact: it is synthetic).
     pub fn calibration(&self) -> Result<Calibration> {
+        let ring = self.scene.rig.ring;
         Ok(Calibration {
-            camera: self.scene.camera(Angle::ZERO)?,
-            motion: self.scene.rig.ring,
+            camera: self.scene.camera(self.turn)?,
+            motion: CircularMotion {
+                cam_from_world_at_zero: ring.cam_from_world(self.turn),
+                ..ring
+            },
         })
     }
 }
 
 impl FrameSource for SceneCamera {
     fn capture(&mut self) -> Result<Frame> {
-        let camera = self.scene.camera(self.pan)?;
+        let camera = self.scene.camera(self.pan + self.turn)?;
         // Each frame its own noise, the same for the same pan angle in every run.
         let seed = (self.pan.radians() / self.seed_step.radians()).round() as i64 as u64;
         let frame = self.scene.render(
@@ -210,7 +251,8 @@ pub fn ptu46_step() -> Angle {
 }
 
 impl SimRig {
-    /// The synthetic rig of catalogue scene `name`, with 1 grey level of sensor noise.
+    /// The synthetic rig of catalogue scene `name` (`SCENE` or `SCENE@DEGREES`, turned on the
+    /// turntable: [`SceneCamera::new`]), with 1 grey level of sensor noise.
     pub fn new(name: &str) -> Result<Self> {
         Ok(SimRig {
             camera: SceneCamera::new(name, ptu46_step())?,
@@ -219,7 +261,7 @@ impl SimRig {
         })
     }
 
-    /// Parses `sim:SCENE`.
+    /// Parses `sim:SCENE` or `sim:SCENE@DEGREES` (see [`SceneCamera::new`]).
     pub fn from_spec(spec: &str) -> Result<Self> {
         Ok(SimRig {
             camera: SceneCamera::from_spec(spec, ptu46_step())?,
@@ -274,5 +316,68 @@ impl FrameSource for SimRig {
 
     fn known_volume(&self) -> Option<Aabb> {
         self.camera.known_volume()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Mean absolute difference of two images, grey levels.
+    fn mean_difference(a: &RgbImage, b: &RgbImage) -> f64 {
+        let sum: f64 = a
+            .as_raw()
+            .iter()
+            .zip(b.as_raw())
+            .map(|(x, y)| f64::from(x.abs_diff(*y)))
+            .sum();
+        sum / a.as_raw().len() as f64
+    }
+
+    #[test]
+    fn a_turned_scene_is_the_scene_seen_further_round()
+    -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let shot = |name: &str, pan: f64| -> Result<(Frame, Calibration)> {
+            let mut rig = SimRig::new(name)?;
+            let reached = rig.move_to(Angle::from_degrees(pan))?;
+            let calibration = rig.calibration()?;
+            let frame = rig.capture()?;
+            // The calibration places the camera where the scene's own camera is, turned.
+            let expected = rig.scene().camera(reached + rig.camera.turn())?;
+            let got = calibration.camera_at(reached);
+            let (e, g) = (expected.cam_from_world, got.cam_from_world);
+            assert!((e.translation.vector - g.translation.vector).norm() < 1e-12);
+            assert!(e.rotation.angle_to(&g.rotation) < 1e-12);
+            Ok((frame, calibration))
+        };
+        let (turned, _) = shot("mirror@20", 40.0)?;
+        let (same, _) = shot("mirror", 60.0)?;
+        let (unturned, _) = shot("mirror", 40.0)?;
+        // The same image but for the sensor noise (1 grey level, seeded by the pan) and for
+        // each pan's rounding to whole steps (up to half a step, 0.026 degrees, apart).
+        let near = mean_difference(&turned.image, &same.image);
+        assert!(near < 1.5, "{near}");
+        let (a, b) = (turned.mask.ok_or("no mask")?, same.mask.ok_or("no mask")?);
+        let differ = a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count();
+        assert!(differ < 200, "{differ} mask pixels differ");
+        let far = mean_difference(&turned.image, &unturned.image);
+        assert!(far > 5.0 * near, "{far} against {near}");
+        Ok(())
+    }
+
+    #[test]
+    fn a_bad_turn_is_refused_naming_it() {
+        for bad in ["mirror@", "mirror@ten", "mirror@200", "mirror@NaN"] {
+            let err = SimRig::new(bad).err().map(|e| e.to_string());
+            let degrees = bad.split_once('@').map_or("", |(_, d)| d);
+            assert!(
+                err.as_deref().is_some_and(
+                    |e| e.contains("scene turn") && e.contains(&format!("{degrees:?}"))
+                ),
+                "{bad}: {err:?}"
+            );
+        }
+        assert!(SimRig::new("teapot@10").is_err());
+        assert!(SimRig::new("mirror@-180").is_ok());
     }
 }

@@ -65,7 +65,8 @@ enum Command {
 
 #[derive(clap::Args)]
 struct CaptureArgs {
-    /// The rig: sim:SCENE (mirror, head, chair or lambertian) is the built-in synthetic rig.
+    /// The rig: sim:SCENE (mirror, head, chair or lambertian) is the built-in synthetic rig;
+    /// sim:SCENE@DEGREES stands the scene turned that far on its turntable (-180 to 180).
     #[arg(long, default_value = "sim:mirror", conflicts_with = "turntable")]
     rig: String,
     /// A real turntable instead of the synthetic rig's: ptu:PATH is a PTU-46 on serial
@@ -225,9 +226,11 @@ struct PlanArgs {
 
 #[derive(clap::Args)]
 struct EvalArgs {
-    /// The rig: sim:SCENE (the truth is the scene, rendered at every uncaptured angle), or
-    /// replay:DIR, a Middlebury-style ring folder (*_par.txt and images) whose recorded views
-    /// play turntable and camera: the views never captured are the truth.
+    /// The rig: sim:SCENE (the truth is the scene, rendered at every uncaptured angle;
+    /// sim:SCENE@DEGREES with the scene turned that far on the turntable, -180 to 180, to see
+    /// how much a result owes to where the object happens to stand), or replay:DIR, a
+    /// Middlebury-style ring folder (*_par.txt and images) whose recorded views play turntable
+    /// and camera: the views never captured are the truth.
     #[arg(long, default_value = "sim:mirror")]
     rig: String,
     /// Views captured uniformly first.

@@ -562,20 +562,24 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
         .arg(temp("negative"))
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("consistent_below"));
-    // A width power out of its domain is refused before a session folder is made.
-    for bad in ["-1", "9", "NaN"] {
-        let folder = temp("width");
+    // A width power or a scene turn out of its domain is refused, naming it, before a
+    // session folder is made.
+    for (flag, bad, named) in [
+        ("--width-power", "-1", "width_power"),
+        ("--width-power", "9", "width_power"),
+        ("--width-power", "NaN", "width_power"),
+        ("--rig", "sim:mirror@x", "scene turn"),
+        ("--rig", "sim:mirror@190", "scene turn"),
+    ] {
+        let folder = temp("bad-option");
         let out = aibr()
             .arg("capture")
-            .args(["--width-power", bad])
+            .args([flag, bad])
             .arg("--out")
             .arg(&folder)
             .output()?;
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(
-            !out.status.success() && err.contains("width_power"),
-            "{err}"
-        );
+        assert!(!out.status.success() && err.contains(named), "{err}");
         assert!(!folder.exists());
     }
     let _ = std::fs::remove_dir_all(&dir);
