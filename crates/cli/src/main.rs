@@ -272,6 +272,16 @@ struct EvalArgs {
     /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
     #[arg(long, default_value = "aibr-eval")]
     work: PathBuf,
+    /// Evaluate a synthetic scene several times, turned on its turntable by each of these
+    /// angles in degrees (e.g. 0,10,20; sessions in --work/turnDEGREES), and summarise active
+    /// minus uniform over the turns: one placement of the object can favour either strategy.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        value_name = "DEGREES"
+    )]
+    turns: Vec<f64>,
     /// Print a machine-readable summary on standard output. On a synthetic rig each
     /// checkpoint also scores the model rendered from against the scene's true surface
     /// ("geometry": accuracy in voxels, completeness; null on a replay rig); with both
@@ -896,19 +906,19 @@ fn volume_source(spec: &str) -> Result<aibr::VolumeSource> {
     }
 }
 
-fn eval(a: EvalArgs) -> Result<()> {
+/// One evaluation of `a` on the rig `spec`, its sessions in `work`.
+fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyEval>> {
     enum EvalOn {
         Sim(Box<aibr::SimRig>, String),
         Replay(aibr::ReplayRig, String),
     }
-    let on = if let Some(scene) = a.rig.strip_prefix("sim:") {
+    let on = if let Some(scene) = spec.strip_prefix("sim:") {
         EvalOn::Sim(
-            Box::new(aibr::SimRig::new(scene).with_context(|| format!("--rig {:?}", a.rig))?),
+            Box::new(aibr::SimRig::new(scene).with_context(|| format!("--rig {spec:?}"))?),
             scene.to_owned(),
         )
-    } else if a.rig.starts_with("replay:") {
-        let rig =
-            aibr::ReplayRig::from_spec(&a.rig).with_context(|| format!("--rig {:?}", a.rig))?;
+    } else if spec.starts_with("replay:") {
+        let rig = aibr::ReplayRig::from_spec(spec).with_context(|| format!("--rig {spec:?}"))?;
         let name = rig
             .dir()
             .file_name()
@@ -916,7 +926,7 @@ fn eval(a: EvalArgs) -> Result<()> {
             .unwrap_or_else(|| "replay".into());
         EvalOn::Replay(rig, name)
     } else {
-        bail!("--rig {:?}: eval needs sim:SCENE or replay:DIR", a.rig);
+        bail!("--rig {spec:?}: eval needs sim:SCENE or replay:DIR");
     };
     let max = match (&on, a.max) {
         (_, Some(m)) => m,
@@ -967,11 +977,7 @@ fn eval(a: EvalArgs) -> Result<()> {
         checkpoints,
         grid: a.grid,
         step: Angle::from_degrees(a.step_deg),
-        model: match a.model {
-            ModelArg::Reconstructed => EvalModel::Reconstructed,
-            ModelArg::Hull => EvalModel::VisualHull,
-            ModelArg::Truth => EvalModel::Truth,
-        },
+        model: eval_model(a.model),
     };
     // No folder is made here: the sessions make theirs, so a refused evaluation leaves none.
     let bar = ProgressBar::new_spinner();
@@ -980,55 +986,136 @@ fn eval(a: EvalArgs) -> Result<()> {
         EvalOn::Sim(rig, name) => aibr::evaluate_rig(
             rig.as_ref(),
             name,
-            &a.rig,
+            spec,
             &strategies,
             &params,
-            &a.work,
+            work,
             &mut progress,
         )?,
-        EvalOn::Replay(rig, name) => aibr::evaluate_rig(
-            rig,
-            name,
-            &a.rig,
-            &strategies,
-            &params,
-            &a.work,
-            &mut progress,
-        )?,
+        EvalOn::Replay(rig, name) => {
+            aibr::evaluate_rig(rig, name, spec, &strategies, &params, work, &mut progress)?
+        }
     };
     bar.finish_and_clear();
+    Ok(results)
+}
+
+fn eval_model(m: ModelArg) -> EvalModel {
+    match m {
+        ModelArg::Reconstructed => EvalModel::Reconstructed,
+        ModelArg::Hull => EvalModel::VisualHull,
+        ModelArg::Truth => EvalModel::Truth,
+    }
+}
+
+fn eval(a: EvalArgs) -> Result<()> {
+    if !a.turns.is_empty() {
+        return eval_turns(&a);
+    }
+    let results = run_eval(&a, &a.rig, &a.work)?;
     if a.json {
-        let json: Vec<_> = results
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "rig": a.rig,
+                "model": eval_model(a.model).name(),
+                "results": results_json(&results),
+            }))?
+        );
+    } else {
+        print_eval_table(&results);
+    }
+    Ok(())
+}
+
+/// `aibr eval --turns`: the evaluation once per turn of the scene, then active - uniform
+/// over the turns.
+fn eval_turns(a: &EvalArgs) -> Result<()> {
+    let scene = match a.rig.strip_prefix("sim:") {
+        Some(scene) if !scene.contains('@') => scene,
+        _ => bail!(
+            "--turns {:?}: needs an unturned synthetic rig (--rig sim:SCENE), not {:?}",
+            a.turns,
+            a.rig
+        ),
+    };
+    // Unturned, the plain rig, so that its sessions are those of `--rig sim:SCENE`.
+    let specs: Vec<String> = a
+        .turns
+        .iter()
+        .map(|&turn| {
+            if turn == 0.0 {
+                format!("sim:{scene}")
+            } else {
+                format!("sim:{scene}@{turn}")
+            }
+        })
+        .collect();
+    // Every turn checked before the first evaluation starts.
+    for spec in &specs {
+        aibr::SimRig::from_spec(spec).with_context(|| format!("--turns: {spec:?}"))?;
+    }
+    let mut runs = Vec::new();
+    for (&turn, spec) in a.turns.iter().zip(specs) {
+        let results = run_eval(a, &spec, &a.work.join(format!("turn{turn}")))?;
+        if !a.json {
+            println!("{spec}");
+            print_eval_table(&results);
+            println!();
+        }
+        runs.push((turn, spec, results));
+    }
+    // Active - uniform at each checkpoint, one figure per turn.
+    let find = |results: &[aibr::StrategyEval], s: Strategy| {
+        results
             .iter()
-            .map(|r| {
+            .find(|r| r.strategy == s)
+            .map(|r| r.checkpoints.clone())
+    };
+    let mut lead: Vec<(usize, Vec<f64>, Vec<f64>)> = Vec::new();
+    for (_, _, results) in &runs {
+        let (Some(active), Some(uniform)) = (
+            find(results, Strategy::Active),
+            find(results, Strategy::Uniform),
+        ) else {
+            break;
+        };
+        for (k, (x, y)) in active.iter().zip(&uniform).enumerate() {
+            if lead.len() <= k {
+                lead.push((x.views, Vec::new(), Vec::new()));
+            }
+            lead[k].1.push(x.mean_psnr - y.mean_psnr);
+            lead[k].2.push(x.pooled_psnr - y.pooled_psnr);
+        }
+    }
+    let stats = |xs: &[f64]| {
+        let mean = xs.iter().sum::<f64>() / xs.len().max(1) as f64;
+        let min = xs.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (mean, min, max)
+    };
+    if a.json {
+        let turns: Vec<_> = runs
+            .iter()
+            .map(|(turn, spec, results)| {
                 serde_json::json!({
-                    "strategy": r.strategy.name(),
-                    "checkpoints": r.checkpoints.iter().map(|c| serde_json::json!({
-                        "views": c.views,
-                        "evaluated_views": c.evaluated,
-                        "mean_masked_psnr_db": c.mean_psnr,
-                        "pooled_masked_psnr_db": c.pooled_psnr,
-                        "mean_masked_ssim": c.mean_ssim,
-                        "worst_arc_psnr_db": c.worst_arc_psnr,
-                        "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
-                        "pans_deg": c.pans.iter().map(|p| p.degrees()).collect::<Vec<_>>(),
-                        "geometry": c.geometry.map(|g| serde_json::json!({
-                            "accuracy_voxels": g.accuracy_voxels,
-                            "completeness": g.completeness,
-                            "surface_voxels": g.surface_voxels,
-                        })),
-                        "common_angles": c.common.map(|k| serde_json::json!({
-                            "angles": k.angles,
-                            "mean_masked_psnr_db": k.mean_psnr,
-                            "pooled_masked_psnr_db": k.pooled_psnr,
-                            "mean_masked_ssim": k.mean_ssim,
-                        })),
-                        "novel_views": c.novel.iter().map(|v| serde_json::json!({
-                            "pan_deg": v.pan.degrees(),
-                            "masked_psnr_db": v.psnr,
-                            "masked_ssim": v.ssim,
-                        })).collect::<Vec<_>>(),
-                    })).collect::<Vec<_>>(),
+                    "turn_deg": turn,
+                    "rig": spec,
+                    "results": results_json(results),
+                })
+            })
+            .collect();
+        let summary: Vec<_> = lead
+            .iter()
+            .map(|(views, mean, pooled)| {
+                let (m, lo, hi) = stats(mean);
+                serde_json::json!({
+                    "views": views,
+                    "mean_masked_psnr_db": mean,
+                    "pooled_masked_psnr_db": pooled,
+                    "mean_over_turns_db": m,
+                    "min_db": lo,
+                    "max_db": hi,
                 })
             })
             .collect();
@@ -1036,14 +1123,66 @@ fn eval(a: EvalArgs) -> Result<()> {
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "rig": a.rig,
-                "model": params.model.name(),
-                "results": json,
+                "model": eval_model(a.model).name(),
+                "turns": turns,
+                "active_minus_uniform": summary,
             }))?
         );
-    } else {
-        print_eval_table(&results);
+    } else if !lead.is_empty() {
+        println!("active - uniform, mean masked PSNR (dB), by turn of the scene (degrees)");
+        let mut header = format!("{:>5}", "views");
+        for (turn, _, _) in &runs {
+            header += &format!(" {:>7}", turn);
+        }
+        println!("{header} {:>7} {:>7} {:>7}", "mean", "min", "max");
+        for (views, mean, _) in &lead {
+            let mut line = format!("{views:>5}");
+            for d in mean {
+                line += &format!(" {d:>+7.2}");
+            }
+            let (m, lo, hi) = stats(mean);
+            println!("{line} {m:>+7.2} {lo:>+7.2} {hi:>+7.2}");
+        }
     }
     Ok(())
+}
+
+/// The JSON of an evaluation's results: per strategy, its checkpoints.
+fn results_json(results: &[aibr::StrategyEval]) -> Vec<serde_json::Value> {
+    results
+        .iter()
+        .map(|r| {
+            serde_json::json!({
+                "strategy": r.strategy.name(),
+                "checkpoints": r.checkpoints.iter().map(|c| serde_json::json!({
+                    "views": c.views,
+                    "evaluated_views": c.evaluated,
+                    "mean_masked_psnr_db": c.mean_psnr,
+                    "pooled_masked_psnr_db": c.pooled_psnr,
+                    "mean_masked_ssim": c.mean_ssim,
+                    "worst_arc_psnr_db": c.worst_arc_psnr,
+                    "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
+                    "pans_deg": c.pans.iter().map(|p| p.degrees()).collect::<Vec<_>>(),
+                    "geometry": c.geometry.map(|g| serde_json::json!({
+                        "accuracy_voxels": g.accuracy_voxels,
+                        "completeness": g.completeness,
+                        "surface_voxels": g.surface_voxels,
+                    })),
+                    "common_angles": c.common.map(|k| serde_json::json!({
+                        "angles": k.angles,
+                        "mean_masked_psnr_db": k.mean_psnr,
+                        "pooled_masked_psnr_db": k.pooled_psnr,
+                        "mean_masked_ssim": k.mean_ssim,
+                    })),
+                    "novel_views": c.novel.iter().map(|v| serde_json::json!({
+                        "pan_deg": v.pan.degrees(),
+                        "masked_psnr_db": v.psnr,
+                        "masked_ssim": v.ssim,
+                    })).collect::<Vec<_>>(),
+                })).collect::<Vec<_>>(),
+            })
+        })
+        .collect()
 }
 
 /// The short table of an evaluation: one line per strategy and checkpoint.

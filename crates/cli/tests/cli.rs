@@ -758,6 +758,87 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     Ok(())
 }
 
+/// `aibr eval --turns`: one evaluation per turn of the scene, each in its own folder and
+/// recorded as that rig, and the summary made of their figures.
+#[test]
+fn eval_over_turns_of_the_scene() -> TestResult {
+    let work = temp("eval-turns");
+    let small = [
+        "eval",
+        "--rig",
+        "sim:lambertian",
+        "--initial",
+        "4",
+        "--max",
+        "5",
+        "--checkpoints",
+        "5",
+        "--grid",
+        "24",
+        "--capture-grid",
+        "16",
+        "--step-deg",
+        "40",
+    ];
+    let out = aibr()
+        .args(small)
+        .args(["--turns", "0,-30", "--json", "--work"])
+        .arg(&work)
+        .output()?;
+    assert_success(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let turns = v["turns"].as_array().ok_or("no turns")?;
+    let mut leads = Vec::new();
+    for (t, (turn, rig, folder)) in turns.iter().zip([
+        (0.0, "sim:lambertian", "turn0/lambertian-active"),
+        (-30.0, "sim:lambertian@-30", "turn-30/lambertian@-30-active"),
+    ]) {
+        assert_eq!(t["turn_deg"].as_f64(), Some(turn));
+        assert_eq!(t["rig"].as_str(), Some(rig));
+        let session: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(
+            work.join(folder).join("session.json"),
+        )?)?;
+        assert_eq!(session["rig"].as_str(), Some(rig));
+        let psnr = |strategy: &str| {
+            t["results"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .find(|r| r["strategy"] == strategy)
+                .and_then(|r| r["checkpoints"][0]["mean_masked_psnr_db"].as_f64())
+        };
+        let (a, u) = (
+            psnr("active").ok_or("active")?,
+            psnr("uniform").ok_or("uniform")?,
+        );
+        leads.push(a - u);
+    }
+    let summary = &v["active_minus_uniform"][0];
+    assert_eq!(summary["views"].as_u64(), Some(5));
+    let listed: Vec<f64> = summary["mean_masked_psnr_db"]
+        .as_array()
+        .ok_or("no leads")?
+        .iter()
+        .filter_map(|x| x.as_f64())
+        .collect();
+    assert_eq!(listed, leads);
+    let mean = summary["mean_over_turns_db"].as_f64().ok_or("no mean")?;
+    assert!((mean - (leads[0] + leads[1]) / 2.0).abs() < 1e-12);
+    // Turns need an unturned synthetic rig, and every turn is checked before any runs.
+    for (rig, turns) in [("sim:lambertian@5", "0,10"), ("sim:lambertian", "0,400")] {
+        let refused = temp("eval-turns-refused");
+        let out = aibr()
+            .args(["eval", "--rig", rig, "--turns", turns, "--work"])
+            .arg(&refused)
+            .output()?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains("--turns"), "{err}");
+        assert!(!refused.exists());
+    }
+    let _ = std::fs::remove_dir_all(&work);
+    Ok(())
+}
+
 #[test]
 fn eval_replays_a_real_ring() -> TestResult {
     let Some(data) = aibr_testdata::dataset("middlebury-templeRing") else {
