@@ -1066,12 +1066,12 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         runs.push((turn, spec, results));
     }
     // Active - uniform at each checkpoint, one figure per turn.
-    let find = |results: &[aibr::StrategyEval], s: Strategy| {
+    fn find(results: &[aibr::StrategyEval], s: Strategy) -> Option<&[aibr::Checkpoint]> {
         results
             .iter()
             .find(|r| r.strategy == s)
-            .map(|r| r.checkpoints.clone())
-    };
+            .map(|r| r.checkpoints.as_slice())
+    }
     let mut lead: Vec<(usize, Vec<f64>, Vec<f64>)> = Vec::new();
     for (_, _, results) in &runs {
         let (Some(active), Some(uniform)) = (
@@ -1080,7 +1080,7 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         ) else {
             break;
         };
-        for (k, (x, y)) in active.iter().zip(&uniform).enumerate() {
+        for (k, (x, y)) in active.iter().zip(uniform).enumerate() {
             if lead.len() <= k {
                 lead.push((x.views, Vec::new(), Vec::new()));
             }
@@ -1108,14 +1108,14 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         let summary: Vec<_> = lead
             .iter()
             .map(|(views, mean, pooled)| {
-                let (m, lo, hi) = stats(mean);
+                let over_turns = |by_turn: &[f64]| {
+                    let (m, lo, hi) = stats(by_turn);
+                    serde_json::json!({ "by_turn": by_turn, "mean": m, "min": lo, "max": hi })
+                };
                 serde_json::json!({
                     "views": views,
-                    "mean_masked_psnr_db": mean,
-                    "pooled_masked_psnr_db": pooled,
-                    "mean_over_turns_db": m,
-                    "min_db": lo,
-                    "max_db": hi,
+                    "mean_masked_psnr_db": over_turns(mean),
+                    "pooled_masked_psnr_db": over_turns(pooled),
                 })
             })
             .collect();

@@ -815,15 +815,18 @@ fn eval_over_turns_of_the_scene() -> TestResult {
     }
     let summary = &v["active_minus_uniform"][0];
     assert_eq!(summary["views"].as_u64(), Some(5));
-    let listed: Vec<f64> = summary["mean_masked_psnr_db"]
+    let listed: Vec<f64> = summary["mean_masked_psnr_db"]["by_turn"]
         .as_array()
         .ok_or("no leads")?
         .iter()
         .filter_map(|x| x.as_f64())
         .collect();
     assert_eq!(listed, leads);
-    let mean = summary["mean_over_turns_db"].as_f64().ok_or("no mean")?;
+    let over = &summary["mean_masked_psnr_db"];
+    let mean = over["mean"].as_f64().ok_or("no mean")?;
     assert!((mean - (leads[0] + leads[1]) / 2.0).abs() < 1e-12);
+    assert_eq!(over["min"].as_f64(), Some(leads[0].min(leads[1])));
+    assert_eq!(over["max"].as_f64(), Some(leads[0].max(leads[1])));
     // Turns need an unturned synthetic rig, and every turn is checked before any runs.
     for (rig, turns) in [("sim:lambertian@5", "0,10"), ("sim:lambertian", "0,400")] {
         let refused = temp("eval-turns-refused");
