@@ -586,29 +586,31 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
     Ok(())
 }
 
+/// `aibr eval` of `sim:lambertian` at a size a test can afford (4 initial views, models of
+/// 24 and 16 voxels, novel views 40 degrees apart); each test adds its budget and checkpoints.
+const SMALL_EVAL: [&str; 11] = [
+    "eval",
+    "--rig",
+    "sim:lambertian",
+    "--initial",
+    "4",
+    "--grid",
+    "24",
+    "--capture-grid",
+    "16",
+    "--step-deg",
+    "40",
+];
+
 /// `aibr eval` on a small configuration: both strategies, every checkpoint, sane figures.
 #[test]
 fn eval_compares_strategies_on_ground_truth() -> TestResult {
     let work = temp("eval");
-    let small_eval = [
-        "eval",
-        "--rig",
-        "sim:lambertian",
-        "--initial",
-        "4",
-        "--max",
-        "6",
-        "--checkpoints",
-        "4,6",
-        "--grid",
-        "24",
-        "--capture-grid",
-        "16",
-        "--step-deg",
-        "40",
-    ];
+    let small_eval = SMALL_EVAL
+        .iter()
+        .chain(&["--max", "6", "--checkpoints", "4,6"]);
     let out = aibr()
-        .args(small_eval)
+        .args(small_eval.clone())
         .args(["--json", "--work"])
         .arg(&work)
         .output()?;
@@ -688,7 +690,7 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     // does not depend on the model), and each set renders better than from its
     // reconstruction (by 1.6 to 2.5 dB when this was written).
     let truth = aibr()
-        .args(small_eval)
+        .args(small_eval.clone())
         .args(["--model", "truth", "--json", "--work"])
         .arg(&work)
         .output()?;
@@ -737,7 +739,7 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     let active = work.join("lambertian-active").join("session.json");
     let before = std::fs::read(&active)?;
     let other = aibr()
-        .args(small_eval)
+        .args(small_eval.clone())
         .args(["--width-power", "2", "--work"])
         .arg(&work)
         .output()?;
@@ -763,23 +765,9 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
 #[test]
 fn eval_over_turns_of_the_scene() -> TestResult {
     let work = temp("eval-turns");
-    let small = [
-        "eval",
-        "--rig",
-        "sim:lambertian",
-        "--initial",
-        "4",
-        "--max",
-        "5",
-        "--checkpoints",
-        "5",
-        "--grid",
-        "24",
-        "--capture-grid",
-        "16",
-        "--step-deg",
-        "40",
-    ];
+    let small = SMALL_EVAL
+        .iter()
+        .chain(&["--max", "5", "--checkpoints", "5"]);
     let out = aibr()
         .args(small)
         .args(["--turns", "0,-30", "--json", "--work"])
