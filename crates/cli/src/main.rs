@@ -1028,6 +1028,16 @@ fn eval(a: EvalArgs) -> Result<()> {
     Ok(())
 }
 
+/// Active - uniform at one checkpoint of `aibr eval --turns`, one figure per turn.
+struct Lead {
+    /// The checkpoint's view count.
+    views: usize,
+    /// Mean masked PSNR, dB.
+    mean: Vec<f64>,
+    /// Pooled masked PSNR, dB.
+    pooled: Vec<f64>,
+}
+
 /// `aibr eval --turns`: the evaluation once per turn of the scene, then active - uniform
 /// over the turns.
 fn eval_turns(a: &EvalArgs) -> Result<()> {
@@ -1065,27 +1075,38 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         }
         runs.push((turn, spec, results));
     }
-    // Active - uniform at each checkpoint, one figure per turn.
-    fn find(results: &[aibr::StrategyEval], s: Strategy) -> Option<&[aibr::Checkpoint]> {
-        results
-            .iter()
-            .find(|r| r.strategy == s)
-            .map(|r| r.checkpoints.as_slice())
-    }
-    let mut lead: Vec<(usize, Vec<f64>, Vec<f64>)> = Vec::new();
+    // Active - uniform at each checkpoint, one figure per turn (every turn ran the same
+    // strategies and checkpoints; without both strategies there is no lead).
+    let lead_of = |results: &[aibr::StrategyEval]| -> Option<Vec<(usize, f64, f64)>> {
+        let of = |s: Strategy| results.iter().find(|r| r.strategy == s);
+        let (active, uniform) = (of(Strategy::Active)?, of(Strategy::Uniform)?);
+        Some(
+            active
+                .checkpoints
+                .iter()
+                .zip(&uniform.checkpoints)
+                .map(|(x, y)| {
+                    (
+                        x.views,
+                        x.mean_psnr - y.mean_psnr,
+                        x.pooled_psnr - y.pooled_psnr,
+                    )
+                })
+                .collect(),
+        )
+    };
+    let mut leads: Vec<Lead> = Vec::new();
     for (_, _, results) in &runs {
-        let (Some(active), Some(uniform)) = (
-            find(results, Strategy::Active),
-            find(results, Strategy::Uniform),
-        ) else {
-            break;
-        };
-        for (k, (x, y)) in active.iter().zip(uniform).enumerate() {
-            if lead.len() <= k {
-                lead.push((x.views, Vec::new(), Vec::new()));
+        for (k, (views, mean, pooled)) in lead_of(results).into_iter().flatten().enumerate() {
+            if leads.len() <= k {
+                leads.push(Lead {
+                    views,
+                    mean: Vec::new(),
+                    pooled: Vec::new(),
+                });
             }
-            lead[k].1.push(x.mean_psnr - y.mean_psnr);
-            lead[k].2.push(x.pooled_psnr - y.pooled_psnr);
+            leads[k].mean.push(mean);
+            leads[k].pooled.push(pooled);
         }
     }
     let stats = |xs: &[f64]| {
@@ -1105,19 +1126,25 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
                 })
             })
             .collect();
-        let summary: Vec<_> = lead
+        let summary: Vec<_> = leads
             .iter()
-            .map(|(views, mean, pooled)| {
-                let over_turns = |by_turn: &[f64]| {
-                    let (m, lo, hi) = stats(by_turn);
-                    serde_json::json!({ "by_turn": by_turn, "mean": m, "min": lo, "max": hi })
-                };
-                serde_json::json!({
-                    "views": views,
-                    "mean_masked_psnr_db": over_turns(mean),
-                    "pooled_masked_psnr_db": over_turns(pooled),
-                })
-            })
+            .map(
+                |Lead {
+                     views,
+                     mean,
+                     pooled,
+                 }| {
+                    let over_turns = |by_turn: &[f64]| {
+                        let (m, lo, hi) = stats(by_turn);
+                        serde_json::json!({ "by_turn": by_turn, "mean": m, "min": lo, "max": hi })
+                    };
+                    serde_json::json!({
+                        "views": views,
+                        "mean_masked_psnr_db": over_turns(mean),
+                        "pooled_masked_psnr_db": over_turns(pooled),
+                    })
+                },
+            )
             .collect();
         println!(
             "{}",
@@ -1128,14 +1155,14 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
                 "active_minus_uniform": summary,
             }))?
         );
-    } else if !lead.is_empty() {
+    } else if !leads.is_empty() {
         println!("active - uniform, mean masked PSNR (dB), by turn of the scene (degrees)");
         let mut header = format!("{:>5}", "views");
         for (turn, _, _) in &runs {
             header += &format!(" {:>7}", turn);
         }
         println!("{header} {:>7} {:>7} {:>7}", "mean", "min", "max");
-        for (views, mean, _) in &lead {
+        for Lead { views, mean, .. } in &leads {
             let mut line = format!("{views:>5}");
             for d in mean {
                 line += &format!(" {d:>+7.2}");
