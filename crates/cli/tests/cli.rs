@@ -602,20 +602,27 @@ const SMALL_EVAL: [&str; 11] = [
     "40",
 ];
 
+/// The JSON of a successful [`SMALL_EVAL`] with `options`, its sessions in `work`.
+fn small_eval_json(
+    options: &[&str],
+    work: &Path,
+) -> Result<serde_json::Value, Box<dyn std::error::Error>> {
+    let out = aibr()
+        .args(SMALL_EVAL)
+        .args(options)
+        .args(["--json", "--work"])
+        .arg(work)
+        .output()?;
+    assert_success(&out);
+    Ok(serde_json::from_slice(&out.stdout)?)
+}
+
 /// `aibr eval` on a small configuration: both strategies, every checkpoint, sane figures.
 #[test]
 fn eval_compares_strategies_on_ground_truth() -> TestResult {
     let work = temp("eval");
-    let small_eval = SMALL_EVAL
-        .iter()
-        .chain(&["--max", "6", "--checkpoints", "4,6"]);
-    let out = aibr()
-        .args(small_eval.clone())
-        .args(["--json", "--work"])
-        .arg(&work)
-        .output()?;
-    assert_success(&out);
-    let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let budget = ["--max", "6", "--checkpoints", "4,6"];
+    let summary = small_eval_json(&budget, &work)?;
     let results = summary["results"].as_array().ok_or("no results")?;
     assert_eq!(results.len(), 2);
     for r in results {
@@ -689,13 +696,7 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     // The same sessions rendered from the true geometry: the views are the same (the capture
     // does not depend on the model), and each set renders better than from its
     // reconstruction (by 1.6 to 2.5 dB when this was written).
-    let truth = aibr()
-        .args(small_eval.clone())
-        .args(["--model", "truth", "--json", "--work"])
-        .arg(&work)
-        .output()?;
-    assert_success(&truth);
-    let truth: serde_json::Value = serde_json::from_slice(&truth.stdout)?;
+    let truth = small_eval_json(&[&budget[..], &["--model", "truth"]].concat(), &work)?;
     assert_eq!(summary["model"], "reconstructed");
     assert_eq!(truth["model"], "truth");
     // Per checkpoint: its views, mean PSNR, and the model's accuracy and completeness.
@@ -739,7 +740,8 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     let active = work.join("lambertian-active").join("session.json");
     let before = std::fs::read(&active)?;
     let other = aibr()
-        .args(small_eval.clone())
+        .args(SMALL_EVAL)
+        .args(budget)
         .args(["--width-power", "2", "--work"])
         .arg(&work)
         .output()?;
@@ -765,16 +767,8 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
 #[test]
 fn eval_over_turns_of_the_scene() -> TestResult {
     let work = temp("eval-turns");
-    let small = SMALL_EVAL
-        .iter()
-        .chain(&["--max", "5", "--checkpoints", "5"]);
-    let out = aibr()
-        .args(small)
-        .args(["--turns", "0,-30", "--json", "--work"])
-        .arg(&work)
-        .output()?;
-    assert_success(&out);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let options = ["--max", "5", "--checkpoints", "5", "--turns", "0,-30"];
+    let v = small_eval_json(&options, &work)?;
     let turns = v["turns"].as_array().ok_or("no turns")?;
     let mut leads = Vec::new();
     for (t, (turn, rig, folder)) in turns.iter().zip([
