@@ -1,9 +1,9 @@
 //! Real data: the Middlebury sparse rings in `AIBR_DATA_DIR`, brought into the turntable
-//! frame by the ring fit of aibr-camera, with silhouettes by thresholding (the README's
-//! recipe; on the temple, only the largest region of the thresholded pixels is kept, which
-//! drops lit parts of the gantry). The dino lies below the camera ring, so voxel coloring
-//! applies; the temple's box reaches above it, so voxel coloring must refuse and space
-//! carving must reconstruct it.
+//! frame by the ring fit of aibr-camera, with silhouettes by thresholding (the dino's README
+//! recipe for the dino; for the temple, whose README has none, a higher threshold and only
+//! the largest region of the thresholded pixels, which drops lit parts of the gantry). The
+//! dino lies below the camera ring, so voxel coloring applies; the temple's box reaches above
+//! it, so voxel coloring must refuse and space carving must reconstruct it.
 //!
 //! Print the figures with
 //! `cargo test --release -p aibr-voxel --test middlebury -- --nocapture`.
@@ -23,6 +23,23 @@ use nalgebra::Point3;
 
 /// Margin around the READMEs' tight boxes, metres (the grids and the silhouette clipping).
 const MARGIN: f64 = 0.003;
+
+/// The temple's silhouettes. Its README gives no recipe (the dino's gives 0.19, dilate 10,
+/// erode 7), and the dino's threshold does not fit it: the black cloth of the gantry beside
+/// the temple has lit folds whose brightest channel lies at 41-63 (median 52) where it
+/// touches the temple's left end in templeSR0002, just over 0.19's 48, so they join the
+/// temple's region, and no other view's silhouette holds them (the visual hull then covers
+/// only 94.9% of that view). At 0.22 (56) the folds go and the temple's lit plaster, far
+/// brighter, stays; the closing mends its shadowed rim. Only the largest thresholded region
+/// is kept, before the closing, because lit parts of the gantry that do not touch the temple
+/// pass any such threshold and the closing would join them to it. Figures for 0.19 to 0.25:
+/// `docs/results.md`, "Voxel coloring on real data".
+const TEMPLE_SILHOUETTES: DarkBackground = DarkBackground {
+    threshold: 0.22,
+    dilate_px: 10,
+    erode_px: 7,
+    largest_component: true,
+};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
@@ -170,13 +187,7 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
         "templeSR_par.txt",
         [-0.073568, 0.021728, -0.012445],
         [0.028855, 0.181892, 0.062736],
-        // The gantry stands beside the temple, lit, in several views, and the README's
-        // closing joins parts of it to the temple: only the largest thresholded region is
-        // the temple.
-        &DarkBackground {
-            largest_component: true,
-            ..DarkBackground::default()
-        },
+        &TEMPLE_SILHOUETTES,
     )?;
     let grid = VoxelGrid::with_resolution(data.volume, 128)?;
     let top = grid.bounds().max.z;
@@ -207,12 +218,9 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
         100.0 * spill
     );
     // No model that respects every silhouette covers more of a view's silhouette than the
-    // visual hull does: where the hull itself falls short, the silhouettes disagree (in
-    // templeSR0002 a part of the gantry that touches the temple even before the closing).
-    // The 95% is reached in 15 of 16 views; in the other carving stays within 4.5
-    // points of the hull (docs/results.md).
+    // visual hull does, so the hull's figure beside each view tells whether a shortfall is
+    // the carving's or the silhouettes' (where they disagree with each other).
     let hull = visual_hull(&grid, &data.views())?;
-    let mut reached = 0;
     for (i, camera) in data.cameras.iter().enumerate() {
         let carved = silhouette_agreement(&out.model.depth_map(camera), &data.masks[i]);
         let bound = silhouette_agreement(&hull.depth_map(camera), &data.masks[i]);
@@ -223,18 +231,9 @@ fn temple_refused_by_voxel_coloring_carved_by_space_carving() -> TestResult {
             100.0 * bound.coverage,
             100.0 * carved.spill
         );
-        assert!(
-            carved.coverage >= 0.95 || carved.coverage >= bound.coverage - 0.045,
-            "{}: coverage {} against the hull's {}",
-            data.names[i],
-            carved.coverage,
-            bound.coverage
-        );
-        reached += usize::from(carved.coverage >= 0.95);
     }
-    assert!(reached >= 15, "95% coverage in {reached} of 16 views");
-    assert!(mean >= 0.95, "mean coverage {mean}");
-    assert!(worst >= 0.90, "coverage {worst}");
+    // The targets, in every view.
+    assert!(worst >= 0.95, "coverage {worst}");
     assert!(spill <= 0.10, "spill {spill}");
     Ok(())
 }
