@@ -72,7 +72,7 @@ pub enum Error {
     SessionExists(PathBuf),
     /// A rig description could not be understood.
     #[error(
-        "unknown rig {0:?}: expected sim:SCENE or sim:SCENE@DEGREES (scenes: mirror, head, chair, lambertian; the scene turned by DEGREES), replay:DIR (a ring data set), or a turntable ptu:PATH"
+        "unknown rig {0:?}: expected sim:SCENE or sim:SCENE@DEGREES (scenes: mirror, mirror-broad, head, chair, lambertian; the scene turned by DEGREES), replay:DIR (a ring data set), or a turntable ptu:PATH"
     )]
     UnknownRig(String),
     /// A parameter is out of its domain.

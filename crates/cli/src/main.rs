@@ -65,8 +65,9 @@ enum Command {
 
 #[derive(clap::Args)]
 struct CaptureArgs {
-    /// The rig: sim:SCENE (mirror, head, chair or lambertian) is the built-in synthetic rig;
-    /// sim:SCENE@DEGREES stands the scene turned that far on its turntable (-180 to 180).
+    /// The rig: sim:SCENE (mirror, mirror-broad, head, chair or lambertian) is the built-in
+    /// synthetic rig; sim:SCENE@DEGREES stands the scene turned that far on its turntable
+    /// (-180 to 180).
     #[arg(long, default_value = "sim:mirror", conflicts_with = "turntable")]
     rig: String,
     /// A real turntable instead of the synthetic rig's: ptu:PATH is a PTU-46 on serial
@@ -464,7 +465,7 @@ fn parse_sweep(text: &str) -> std::result::Result<Sweep, String> {
 enum SceneCommand {
     /// Render a catalogue scene at a pan angle of its default rig.
     Render {
-        /// mirror, head, chair or lambertian.
+        /// mirror, mirror-broad, head, chair or lambertian.
         scene: String,
         /// The pan angle, degrees.
         #[arg(long, allow_hyphen_values = true)]

@@ -1,4 +1,4 @@
-//! The named scenes: `mirror`, `head`, `chair` and `lambertian`.
+//! The named scenes: `mirror`, `mirror-broad`, `head`, `chair` and `lambertian`.
 //!
 //! All stand on the turntable (`z = 0`) within 0.1 m of the axis and at most 0.22 m tall, under
 //! the same rig and lights:
@@ -10,11 +10,13 @@
 //!   axis, so the shading of a matte surface is the same at every pan angle (colour
 //!   consistency holds), while highlights and reflections, which depend on the camera too,
 //!   slide over the object as it turns;
-//! - backdrop: dark blue-grey noise fixed in the lab; environment: the studio.
+//! - backdrop: dark blue-grey noise fixed in the lab; environment: the studio
+//!   ([`Environment::Studio`]; `mirror-broad`'s is [`Environment::BroadStudio`]).
 //!
 //! | scene | what | ground-truth volume (m) |
 //! |---|---|---|
 //! | `mirror` | a matchbox (printed label texture) with a mirror panel on its -X side, after the paper's "mirror bound with a matches box" | x -0.0655..0.060, y -0.045..0.045, z -0.005..0.175 |
+//! | `mirror-broad` | `mirror` in a studio of broad features only (no fine stripes, floor tiles five times as large), so that how well the mirror renders depends on how densely the views fall near it | as `mirror` |
 //! | `head` | glossy textured ellipsoid head with nose and ears on a neck and pedestal (Blinn-Phong highlights) | x -0.080..0.080, y -0.083..0.080, z -0.005..0.230 |
 //! | `chair` | a chair with four thin legs, a seat and a slatted back (self-occlusion) | x -0.070..0.070, y -0.070..0.070, z -0.005..0.215 |
 //! | `lambertian` | a matte textured block, drum and ball | x -0.070..0.070, y -0.070..0.070, z -0.005..0.200 |
@@ -32,12 +34,13 @@ use crate::shape::Shape;
 use crate::texture::{Colour, Texture, rgb8};
 
 /// Names of the catalogue scenes.
-pub const SCENE_NAMES: [&str; 4] = ["mirror", "head", "chair", "lambertian"];
+pub const SCENE_NAMES: [&str; 5] = ["mirror", "mirror-broad", "head", "chair", "lambertian"];
 
 /// The catalogue scene called `name`.
 pub fn by_name(name: &str) -> Result<Scene> {
     match name {
         "mirror" => mirror(),
+        "mirror-broad" => mirror_broad(),
         "head" => head(),
         "chair" => chair(),
         "lambertian" => lambertian(),
@@ -60,6 +63,12 @@ pub fn default_rig() -> Result<SceneRig> {
 }
 
 fn studio_scene(name: &str, objects: Vec<SceneObject>) -> Result<Scene> {
+    scene_in(name, objects, Environment::Studio)
+}
+
+/// A catalogue scene: `objects` under the shared lights, backdrop and rig, with `environment`
+/// in its mirrors.
+fn scene_in(name: &str, objects: Vec<SceneObject>, environment: Environment) -> Result<Scene> {
     Scene::new(
         name,
         objects,
@@ -77,7 +86,7 @@ fn studio_scene(name: &str, objects: Vec<SceneObject>) -> Result<Scene> {
             feature: 0.02,
             seed: 99,
         },
-        Environment::Studio,
+        environment,
         default_rig()?,
     )
 }
@@ -135,23 +144,37 @@ fn ellipsoid(centre: [f64; 3], radii: [f64; 3], material: Material) -> SceneObje
 
 /// A matchbox with a mirror panel on its -X side.
 pub fn mirror() -> Result<Scene> {
-    let panel_x = -0.0605; // half a millimetre in front of the box's -X face
-    studio_scene(
-        "mirror",
-        vec![
-            cuboid([-0.06, -0.04, 0.0], [0.055, 0.04, 0.17], matte(label(7))),
-            SceneObject {
-                shape: Shape::Quad {
-                    corner: Point3::new(panel_x, -0.035, 0.01),
-                    u: Vector3::new(0.0, 0.07, 0.0),
-                    v: Vector3::new(0.0, 0.0, 0.15),
-                },
-                material: Material::Mirror {
-                    tint: Colour::new(0.92, 0.92, 0.95),
-                },
-            },
-        ],
+    scene_in("mirror", matchbox_with_mirror(), Environment::Studio)
+}
+
+/// [`mirror`] in the [`Environment::BroadStudio`]: the same objects, with a reflection that
+/// changes about half as fast with the turn, so that how well the mirror renders depends
+/// more on how densely the views fall near it (in `mirror`'s studio a stripe's image lasts
+/// 1.5 degrees of turn).
+pub fn mirror_broad() -> Result<Scene> {
+    scene_in(
+        "mirror-broad",
+        matchbox_with_mirror(),
+        Environment::BroadStudio,
     )
+}
+
+/// The objects of [`mirror`]: a matchbox with a mirror panel on its -X side.
+fn matchbox_with_mirror() -> Vec<SceneObject> {
+    let panel_x = -0.0605; // half a millimetre in front of the box's -X face
+    vec![
+        cuboid([-0.06, -0.04, 0.0], [0.055, 0.04, 0.17], matte(label(7))),
+        SceneObject {
+            shape: Shape::Quad {
+                corner: Point3::new(panel_x, -0.035, 0.01),
+                u: Vector3::new(0.0, 0.07, 0.0),
+                v: Vector3::new(0.0, 0.0, 0.15),
+            },
+            material: Material::Mirror {
+                tint: Colour::new(0.92, 0.92, 0.95),
+            },
+        },
+    ]
 }
 
 /// A glossy textured head on a neck and pedestal.

@@ -101,9 +101,18 @@ pub enum Environment {
     /// One colour in every direction.
     Solid(Colour),
     /// A studio: coloured wall panels by azimuth with fine vertical stripes, a bright
-    /// ceiling and a floor of randomly coloured tiles. Strongly direction dependent, so a mirror's image
-    /// changes quickly as the object turns.
+    /// ceiling and a floor of randomly coloured tiles. Strongly direction dependent, so a
+    /// mirror's image changes quickly as the object turns: the stripes alternate every 3
+    /// degrees of azimuth, the floor tiles are a tenth of the floor's depth below the object
+    /// across, and a reflection turns twice as fast as the object, so a stripe's image lasts
+    /// 1.5 degrees of turn.
     Studio,
+    /// The studio with broad features only: its wall panels (45 degrees of azimuth each)
+    /// without the stripes, its bands and ceiling, and floor tiles five times as large. A
+    /// mirror's image of it changes about half as fast with the turn (after one degree of
+    /// turn a quarter of a mirror's points have changed colour, against two thirds in the
+    /// studio), so it is sampled better by denser views (`docs/scene.md`).
+    BroadStudio,
 }
 
 /// The default capture rig of a scene: a camera on a ring above the object.
@@ -412,7 +421,8 @@ impl Scene {
     pub(crate) fn environment_colour(&self, d: &Vector3<f64>) -> Colour {
         match &self.environment {
             Environment::Solid(c) => *c,
-            Environment::Studio => studio(d),
+            Environment::Studio => studio(d, false),
+            Environment::BroadStudio => studio(d, true),
         }
     }
 }
@@ -429,14 +439,16 @@ const STUDIO_PALETTE: [[f32; 3]; 8] = [
     [0.5, 0.35, 0.2],
 ];
 
-/// The procedural studio of [`Environment::Studio`].
-fn studio(d: &Vector3<f64>) -> Colour {
+/// The procedural studio of [`Environment::Studio`], or with `broad` of
+/// [`Environment::BroadStudio`].
+fn studio(d: &Vector3<f64>, broad: bool) -> Colour {
     if d.z < -0.02 {
         // Floor: tiles of random palette colours on the plane one unit below.
         let s = -1.0 / d.z;
+        let tile_m = if broad { 0.5 } else { 0.1 };
         let (x, y) = (
-            (d.x * s / 0.1).floor() as i64,
-            (d.y * s / 0.1).floor() as i64,
+            (d.x * s / tile_m).floor() as i64,
+            (d.y * s / tile_m).floor() as i64,
         );
         let tile = crate::rng::hash3(x, y, 0, 0x57D10) % 8;
         let fade = (1.0 / (1.0 + 0.05 * s)) as f32;
@@ -447,7 +459,11 @@ fn studio(d: &Vector3<f64>) -> Colour {
     }
     let phi = d.y.atan2(d.x) + std::f64::consts::PI;
     let panel = ((phi / std::f64::consts::TAU * 8.0) as usize).min(7);
-    let stripe = 0.75 + 0.25 * (phi * 60.0).sin().signum() as f32;
+    let stripe = if broad {
+        1.0
+    } else {
+        0.75 + 0.25 * (phi * 60.0).sin().signum() as f32
+    };
     let band = if (d.z * 12.0).floor() as i64 % 2 == 0 {
         1.0
     } else {
