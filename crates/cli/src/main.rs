@@ -275,7 +275,8 @@ struct EvalArgs {
     work: PathBuf,
     /// Evaluate a synthetic scene several times, turned on its turntable by each of these
     /// angles in degrees (e.g. 0,10,20; sessions in --work/turnDEGREES), and summarise active
-    /// minus uniform over the turns: one placement of the object can favour either strategy.
+    /// minus uniform over the turns (mean, its standard error, range, and at how many turns
+    /// active is ahead): one placement of the object can favour either strategy.
     #[arg(
         long,
         value_delimiter = ',',
@@ -1111,10 +1112,18 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         }
     }
     let stats = |xs: &[f64]| {
-        let mean = xs.iter().sum::<f64>() / xs.len().max(1) as f64;
+        let n = xs.len();
+        let mean = xs.iter().sum::<f64>() / n.max(1) as f64;
         let min = xs.iter().copied().fold(f64::INFINITY, f64::min);
         let max = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        (mean, min, max)
+        // The standard error of the mean over the turns (sample standard deviation over
+        // sqrt(n)); undefined for one turn.
+        let error = (n > 1).then(|| {
+            let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+            (var / n as f64).sqrt()
+        });
+        let ahead = xs.iter().filter(|&&x| x > 0.0).count();
+        (mean, min, max, error, ahead)
     };
     if a.json {
         let turns: Vec<_> = runs
@@ -1136,8 +1145,15 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
                      pooled,
                  }| {
                     let over_turns = |by_turn: &[f64]| {
-                        let (m, lo, hi) = stats(by_turn);
-                        serde_json::json!({ "by_turn": by_turn, "mean": m, "min": lo, "max": hi })
+                        let (m, lo, hi, error, ahead) = stats(by_turn);
+                        serde_json::json!({
+                            "by_turn": by_turn,
+                            "mean": m,
+                            "standard_error": error,
+                            "min": lo,
+                            "max": hi,
+                            "turns_ahead": ahead,
+                        })
                     };
                     serde_json::json!({
                         "views": views,
@@ -1162,14 +1178,19 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         for (turn, _, _) in &runs {
             header += &format!(" {:>7}", turn);
         }
-        println!("{header} {:>7} {:>7} {:>7}", "mean", "min", "max");
+        println!(
+            "{header} {:>7} {:>7} {:>7} {:>7} {:>7}",
+            "mean", "s.e.", "min", "max", "ahead"
+        );
         for Lead { views, mean, .. } in &leads {
             let mut line = format!("{views:>5}");
             for d in mean {
                 line += &format!(" {d:>+7.2}");
             }
-            let (m, lo, hi) = stats(mean);
-            println!("{line} {m:>+7.2} {lo:>+7.2} {hi:>+7.2}");
+            let (m, lo, hi, error, ahead) = stats(mean);
+            let error = error.map_or_else(|| format!("{:>7}", "-"), |e| format!("{e:>7.2}"));
+            let ahead = format!("{ahead}/{}", mean.len());
+            println!("{line} {m:>+7.2} {error} {lo:>+7.2} {hi:>+7.2} {ahead:>7}");
         }
     }
     Ok(())

@@ -809,6 +809,11 @@ fn eval_over_turns_of_the_scene() -> TestResult {
     assert!((mean - (leads[0] + leads[1]) / 2.0).abs() < 1e-12);
     assert_eq!(over["min"].as_f64(), Some(leads[0].min(leads[1])));
     assert_eq!(over["max"].as_f64(), Some(leads[0].max(leads[1])));
+    // Two turns: the standard error of their mean is half their difference.
+    let error = over["standard_error"].as_f64().ok_or("no standard error")?;
+    assert!((error - (leads[0] - leads[1]).abs() / 2.0).abs() < 1e-12);
+    let ahead = leads.iter().filter(|&&x| x > 0.0).count();
+    assert_eq!(over["turns_ahead"].as_u64(), Some(ahead as u64));
     // Turns need an unturned synthetic rig, and every turn is checked before any runs.
     for (rig, turns) in [("sim:lambertian@5", "0,10"), ("sim:lambertian", "0,400")] {
         let refused = temp("eval-turns-refused");
