@@ -202,12 +202,14 @@ pub struct Checkpoint {
     /// checkpoint; `None` when only one strategy was evaluated (or no angle is common). Each
     /// strategy's mean is otherwise over its own novel views, which leave out the angles it
     /// chose to capture, so this is the like-for-like comparison.
-    pub common: Option<CommonAngles>,
+    pub common: Option<ViewFigures>,
 }
 
-/// A checkpoint's novel views restricted to the angles every evaluated strategy left out.
+/// The figures of a set of a checkpoint's novel views: all of them, those at the angles every
+/// evaluated strategy left out ([`Checkpoint::common`]), or those on an arc of the object
+/// ([`Checkpoint::split`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CommonAngles {
+pub struct ViewFigures {
     /// How many angles.
     pub angles: usize,
     /// Mean masked PSNR over them, dB.
@@ -216,6 +218,55 @@ pub struct CommonAngles {
     pub pooled_psnr: f64,
     /// Mean masked SSIM over them.
     pub mean_ssim: f64,
+}
+
+/// An arc of the object's own pan angles, from `from` up to `to` (through the full turn when
+/// `to` is below `from`), as the object stands where the catalogue places it: on a scene
+/// turned on its turntable (`sim:SCENE@DEGREES`) the view reported at pan `p` sees the object
+/// at `p` plus the turn. It names a side of the object, such as `mirror`'s panel side, however
+/// the object is turned.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjectArc {
+    /// Where the arc starts.
+    pub from: Angle,
+    /// Where it ends.
+    pub to: Angle,
+}
+
+impl ObjectArc {
+    /// Whether the object's pan angle `pan` lies on the arc (its ends included; angles
+    /// compared modulo a full turn).
+    pub fn contains(&self, pan: Angle) -> bool {
+        let tau = std::f64::consts::TAU;
+        let span = (self.to.radians() - self.from.radians()).rem_euclid(tau);
+        (pan.radians() - self.from.radians()).rem_euclid(tau) <= span + 1e-12
+    }
+}
+
+/// A checkpoint's novel views split by an [`ObjectArc`] ([`Checkpoint::split`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArcSplit {
+    /// The figures of the novel views on the arc; `None` when there are none.
+    pub inside: Option<ViewFigures>,
+    /// Those of the others.
+    pub outside: Option<ViewFigures>,
+    /// How many of the checkpoint's captured views lie on the arc.
+    pub captured_inside: usize,
+}
+
+impl Checkpoint {
+    /// The figures of the novel views whose object pan angle (the reported pan plus `turn`,
+    /// how far the object stands turned on the turntable) lies on `arc`, and of the others.
+    pub fn split(&self, arc: &ObjectArc, turn: Angle) -> ArcSplit {
+        let on_arc = |pan: Angle| arc.contains(pan + turn);
+        let (inside, outside): (Vec<&NovelView>, Vec<&NovelView>) =
+            self.novel.iter().partition(|v| on_arc(v.pan));
+        ArcSplit {
+            inside: ViewFigures::of(&inside),
+            outside: ViewFigures::of(&outside),
+            captured_inside: self.pans.iter().filter(|&&p| on_arc(p)).count(),
+        }
+    }
 }
 
 /// The measurement of one novel view.
@@ -405,16 +456,16 @@ fn add_common_angles(results: &mut [StrategyEval]) {
                 .iter()
                 .filter(|v| common.contains(&v.pan.radians().to_bits()))
                 .collect();
-            c.common = CommonAngles::of(&views);
+            c.common = ViewFigures::of(&views);
         }
     }
 }
 
-impl CommonAngles {
+impl ViewFigures {
     /// The figures of `views` (a checkpoint's reports the same over all its novel views);
     /// `None` for none.
     fn of(views: &[&NovelView]) -> Option<Self> {
-        Some(CommonAngles {
+        Some(ViewFigures {
             angles: views.len(),
             mean_psnr: mean_of(views, |v| v.psnr),
             pooled_psnr: metrics::pooled_psnr(views.iter().map(|v| v.psnr))?,
@@ -564,8 +615,8 @@ fn measure<R: EvalRig>(
             worst = (arc, (w[0], w[1]));
         }
     }
-    // Over all the novel views: the figures `CommonAngles` gives a subset of them (0 for none).
-    let all = CommonAngles::of(&novel.iter().collect::<Vec<_>>());
+    // Over all the novel views: the figures `ViewFigures` gives a subset of them (0 for none).
+    let all = ViewFigures::of(&novel.iter().collect::<Vec<_>>());
     Ok(Checkpoint {
         views: views.len(),
         pans,
@@ -584,6 +635,73 @@ fn measure<R: EvalRig>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_arc_of_the_object_splits_the_novel_views_however_the_object_is_turned() {
+        let deg = Angle::from_degrees;
+        let arc = ObjectArc {
+            from: deg(20.0),
+            to: deg(160.0),
+        };
+        for (pan, on) in [
+            (20.0, true),
+            (90.0, true),
+            (160.0, true),
+            (19.9, false),
+            (-90.0, false),
+        ] {
+            assert_eq!(arc.contains(deg(pan)), on, "{pan}");
+        }
+        // Through the full turn: from 150 up to -150 is the 60 degrees behind.
+        let behind = ObjectArc {
+            from: deg(150.0),
+            to: deg(-150.0),
+        };
+        for (pan, on) in [
+            (180.0, true),
+            (-170.0, true),
+            (150.0, true),
+            (0.0, false),
+            (140.0, false),
+        ] {
+            assert_eq!(behind.contains(deg(pan)), on, "{pan}");
+        }
+        let novel = |pan: f64, psnr: f64| NovelView {
+            pan: deg(pan),
+            psnr,
+            ssim: 0.9,
+        };
+        let checkpoint = Checkpoint {
+            views: 3,
+            pans: vec![deg(-100.0), deg(0.0), deg(100.0)],
+            evaluated: 4,
+            mean_psnr: 25.0,
+            pooled_psnr: 25.0,
+            mean_ssim: 0.9,
+            worst_arc_psnr: 20.0,
+            worst_arc: (deg(0.0), deg(100.0)),
+            novel: vec![
+                novel(-50.0, 30.0),
+                novel(10.0, 28.0),
+                novel(50.0, 20.0),
+                novel(150.0, 22.0),
+            ],
+            geometry: None,
+            common: None,
+        };
+        // Unturned: the novel views at 50 and 150 lie on the arc, and the captured one at 100.
+        let plain = checkpoint.split(&arc, Angle::ZERO);
+        assert_eq!(plain.captured_inside, 1);
+        let figures = |f: Option<ViewFigures>| f.map(|f| (f.angles, f.mean_psnr));
+        assert_eq!(figures(plain.inside), Some((2, 21.0)));
+        assert_eq!(figures(plain.outside), Some((2, 29.0)));
+        // Turned by 40 degrees, the pans of the object are 40 more: -10, 50, 90, 190 for the
+        // novel views, -60, 40, 140 for the captured ones.
+        let turned = checkpoint.split(&arc, deg(40.0));
+        assert_eq!(turned.captured_inside, 2);
+        assert_eq!(figures(turned.inside), Some((2, 24.0)));
+        assert_eq!(figures(turned.outside), Some((2, 26.0)));
+    }
 
     /// The grid angles a synthetic rig measures, in whole degrees.
     fn novel_degrees(captured: &[f64], step: f64) -> Result<Vec<i64>> {

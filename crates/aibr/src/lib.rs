@@ -56,8 +56,8 @@ pub use capture::{
 };
 pub use error::{Error, Result};
 pub use eval::{
-    Checkpoint, CommonAngles, EvalModel, EvalParams, EvalRig, NovelView, StrategyEval, evaluate,
-    evaluate_rig,
+    ArcSplit, Checkpoint, EvalModel, EvalParams, EvalRig, NovelView, ObjectArc, StrategyEval,
+    ViewFigures, evaluate, evaluate_rig,
 };
 pub use ptu_rig::PtuTurntable;
 pub use replay::ReplayRig;

@@ -280,6 +280,11 @@ impl SimRig {
         self.camera.scene()
     }
 
+    /// How far the scene stands turned on the turntable (`SCENE@DEGREES`; zero otherwise).
+    pub fn turn(&self) -> Angle {
+        self.camera.turn()
+    }
+
     /// The rig's calibration (exact: it is synthetic).
     pub fn calibration(&self) -> Result<Calibration> {
         self.camera.calibration()

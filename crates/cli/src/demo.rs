@@ -560,7 +560,7 @@ window.addEventListener('load', () => {{
     write(&index, html.as_bytes())?;
     bar.finish_and_clear();
 
-    crate::print_eval_table(&results);
+    crate::print_eval_table(&results, None);
     println!("report: {} ({elapsed:.0} s)", index.display());
     Ok(index)
 }

@@ -284,6 +284,12 @@ struct EvalArgs {
         value_name = "DEGREES"
     )]
     turns: Vec<f64>,
+    /// Also report the figures of the novel views on this arc of the object's own pan
+    /// angles, FROM:TO in degrees (e.g. 20:160, the side from which mirror's panel is seen),
+    /// and of the others, with how many captured views lie on it; the arc turns with a
+    /// turned scene. With --turns, active - uniform on and off the arc is summarised too.
+    #[arg(long, value_name = "FROM:TO", allow_hyphen_values = true, value_parser = parse_arc)]
+    arc: Option<aibr::ObjectArc>,
     /// Print a machine-readable summary on standard output. On a synthetic rig each
     /// checkpoint also scores the model rendered from against the scene's true surface
     /// ("geometry": accuracy in voxels, completeness; null on a replay rig); with both
@@ -426,6 +432,31 @@ impl Sweep {
     fn angles(&self) -> impl Iterator<Item = f64> + '_ {
         (0..self.len()).map(|i| self.from + i as f64 * self.step)
     }
+}
+
+fn parse_arc(text: &str) -> std::result::Result<aibr::ObjectArc, String> {
+    let Some((from, to)) = text.split_once(':') else {
+        return Err(format!(
+            "{text:?}: expected FROM:TO in degrees, such as 20:160"
+        ));
+    };
+    let number = |name: &str, v: &str| {
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("{text:?}: {name} {v:?} is not a number of degrees"))
+    };
+    let (from, to) = (number("FROM", from)?, number("TO", to)?);
+    if (to - from).rem_euclid(360.0) == 0.0 {
+        return Err(format!(
+            "{text:?}: FROM and TO are the same angle, which makes no arc"
+        ));
+    }
+    Ok(aibr::ObjectArc {
+        from: Angle::from_degrees(from),
+        to: Angle::from_degrees(to),
+    })
 }
 
 fn parse_sweep(text: &str) -> std::result::Result<Sweep, String> {
@@ -1015,29 +1046,103 @@ fn eval(a: EvalArgs) -> Result<()> {
         return eval_turns(&a);
     }
     let results = run_eval(&a, &a.rig, &a.work)?;
+    let arc = arc_report(&a, &a.rig)?;
     if a.json {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "rig": a.rig,
                 "model": eval_model(a.model).name(),
-                "results": results_json(&results),
+                "results": results_json(&results, arc.as_ref()),
             }))?
         );
     } else {
-        print_eval_table(&results);
+        print_eval_table(&results, arc.as_ref());
     }
     Ok(())
 }
 
-/// Active - uniform at one checkpoint of `aibr eval --turns`, one figure per turn.
+/// `--arc`, and how far the rig's object stands turned (a synthetic `sim:SCENE@DEGREES`;
+/// nothing else is turned).
+struct ArcReport {
+    arc: aibr::ObjectArc,
+    turn: Angle,
+}
+
+fn arc_report(a: &EvalArgs, spec: &str) -> Result<Option<ArcReport>> {
+    let Some(arc) = a.arc else { return Ok(None) };
+    let turn = if spec.starts_with("sim:") {
+        SimRig::from_spec(spec)
+            .with_context(|| format!("--rig {spec:?}"))?
+            .turn()
+    } else {
+        Angle::ZERO
+    };
+    Ok(Some(ArcReport { arc, turn }))
+}
+
+/// Active - uniform at one checkpoint of `aibr eval --turns`, one figure per turn and
+/// measure, dB (`None` where a turn has no such figure: no common angle, or no novel view on
+/// the `--arc`).
 struct Lead {
     /// The checkpoint's view count.
     views: usize,
-    /// Mean masked PSNR, dB.
-    mean: Vec<f64>,
-    /// Pooled masked PSNR, dB.
-    pooled: Vec<f64>,
+    /// Mean masked PSNR.
+    mean: Vec<Option<f64>>,
+    /// Pooled masked PSNR.
+    pooled: Vec<Option<f64>>,
+    /// Mean masked PSNR over the angles neither strategy captured.
+    common: Vec<Option<f64>>,
+    /// Mean masked PSNR of the novel views on the `--arc`, and of the others.
+    inside: Vec<Option<f64>>,
+    outside: Vec<Option<f64>>,
+}
+
+/// The figures of a lead over the turns that have one: mean, standard error of the mean
+/// (sample standard deviation over the square root of their number; none for one turn), least,
+/// greatest, and at how many turns active is ahead.
+struct OverTurns {
+    mean: f64,
+    error: Option<f64>,
+    min: f64,
+    max: f64,
+    ahead: usize,
+    turns: usize,
+}
+
+impl OverTurns {
+    fn of(by_turn: &[Option<f64>]) -> Option<Self> {
+        let xs: Vec<f64> = by_turn.iter().flatten().copied().collect();
+        let n = xs.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let error = (n > 1).then(|| {
+            let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+            (var / n as f64).sqrt()
+        });
+        Some(OverTurns {
+            mean,
+            error,
+            min: xs.iter().copied().fold(f64::INFINITY, f64::min),
+            max: xs.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            ahead: xs.iter().filter(|&&x| x > 0.0).count(),
+            turns: n,
+        })
+    }
+
+    fn json(by_turn: &[Option<f64>]) -> serde_json::Value {
+        let over = Self::of(by_turn);
+        serde_json::json!({
+            "by_turn": by_turn,
+            "mean": over.as_ref().map(|o| o.mean),
+            "standard_error": over.as_ref().and_then(|o| o.error),
+            "min": over.as_ref().map(|o| o.min),
+            "max": over.as_ref().map(|o| o.max),
+            "turns_ahead": over.as_ref().map(|o| o.ahead),
+        })
+    }
 }
 
 /// `aibr eval --turns`: the evaluation once per turn of the scene, then active - uniform
@@ -1072,96 +1177,83 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         let results = run_eval(a, &spec, &a.work.join(format!("turn{turn}")))?;
         if !a.json {
             println!("{spec}");
-            print_eval_table(&results);
+            print_eval_table(&results, arc_report(a, &spec)?.as_ref());
             println!();
         }
         runs.push((turn, spec, results));
     }
     // Active - uniform at each checkpoint, one figure per turn (every turn ran the same
     // strategies and checkpoints; without both strategies there is no lead).
-    let lead_of = |results: &[aibr::StrategyEval]| -> Option<Vec<(usize, f64, f64)>> {
-        let of = |s: Strategy| results.iter().find(|r| r.strategy == s);
-        let (active, uniform) = (of(Strategy::Active)?, of(Strategy::Uniform)?);
-        Some(
-            active
-                .checkpoints
-                .iter()
-                .zip(&uniform.checkpoints)
-                .map(|(x, y)| {
-                    (
-                        x.views,
-                        x.mean_psnr - y.mean_psnr,
-                        x.pooled_psnr - y.pooled_psnr,
-                    )
-                })
-                .collect(),
-        )
-    };
     let mut leads: Vec<Lead> = Vec::new();
-    for (_, _, results) in &runs {
-        for (k, (views, mean, pooled)) in lead_of(results).into_iter().flatten().enumerate() {
+    for (turn, spec, results) in &runs {
+        let of = |s: Strategy| results.iter().find(|r| r.strategy == s);
+        let (Some(active), Some(uniform)) = (of(Strategy::Active), of(Strategy::Uniform)) else {
+            continue;
+        };
+        let arc = arc_report(a, spec)?;
+        debug_assert!(
+            arc.as_ref()
+                .is_none_or(|r| (r.turn.degrees() - turn).abs() < 1e-9)
+        );
+        for (k, (x, y)) in active
+            .checkpoints
+            .iter()
+            .zip(&uniform.checkpoints)
+            .enumerate()
+        {
             if leads.len() <= k {
                 leads.push(Lead {
-                    views,
+                    views: x.views,
                     mean: Vec::new(),
                     pooled: Vec::new(),
+                    common: Vec::new(),
+                    inside: Vec::new(),
+                    outside: Vec::new(),
                 });
             }
-            leads[k].mean.push(mean);
-            leads[k].pooled.push(pooled);
+            let lead = &mut leads[k];
+            let minus = |p: Option<f64>, q: Option<f64>| Some(p? - q?);
+            lead.mean.push(Some(x.mean_psnr - y.mean_psnr));
+            lead.pooled.push(Some(x.pooled_psnr - y.pooled_psnr));
+            lead.common.push(minus(
+                x.common.map(|c| c.mean_psnr),
+                y.common.map(|c| c.mean_psnr),
+            ));
+            if let Some(r) = &arc {
+                let (sx, sy) = (x.split(&r.arc, r.turn), y.split(&r.arc, r.turn));
+                let side = |f: Option<aibr::ViewFigures>| f.map(|f| f.mean_psnr);
+                lead.inside.push(minus(side(sx.inside), side(sy.inside)));
+                lead.outside.push(minus(side(sx.outside), side(sy.outside)));
+            }
         }
     }
-    let stats = |xs: &[f64]| {
-        let n = xs.len();
-        let mean = xs.iter().sum::<f64>() / n.max(1) as f64;
-        let min = xs.iter().copied().fold(f64::INFINITY, f64::min);
-        let max = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        // The standard error of the mean over the turns (sample standard deviation over
-        // sqrt(n)); undefined for one turn.
-        let error = (n > 1).then(|| {
-            let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-            (var / n as f64).sqrt()
-        });
-        let ahead = xs.iter().filter(|&&x| x > 0.0).count();
-        (mean, min, max, error, ahead)
-    };
     if a.json {
         let turns: Vec<_> = runs
             .iter()
             .map(|(turn, spec, results)| {
-                serde_json::json!({
+                let arc = arc_report(a, spec)?;
+                Ok(serde_json::json!({
                     "turn_deg": turn,
                     "rig": spec,
-                    "results": results_json(results),
-                })
+                    "results": results_json(results, arc.as_ref()),
+                }))
             })
-            .collect();
+            .collect::<Result<_>>()?;
         let summary: Vec<_> = leads
             .iter()
-            .map(
-                |Lead {
-                     views,
-                     mean,
-                     pooled,
-                 }| {
-                    let over_turns = |by_turn: &[f64]| {
-                        let (m, lo, hi, error, ahead) = stats(by_turn);
-                        serde_json::json!({
-                            "by_turn": by_turn,
-                            "mean": m,
-                            "standard_error": error,
-                            "min": lo,
-                            "max": hi,
-                            "turns_ahead": ahead,
-                        })
-                    };
-                    serde_json::json!({
-                        "views": views,
-                        "mean_masked_psnr_db": over_turns(mean),
-                        "pooled_masked_psnr_db": over_turns(pooled),
-                    })
-                },
-            )
+            .map(|lead| {
+                let mut s = serde_json::json!({
+                    "views": lead.views,
+                    "mean_masked_psnr_db": OverTurns::json(&lead.mean),
+                    "pooled_masked_psnr_db": OverTurns::json(&lead.pooled),
+                    "common_angles_mean_masked_psnr_db": OverTurns::json(&lead.common),
+                });
+                if a.arc.is_some() {
+                    s["arc_inside_mean_masked_psnr_db"] = OverTurns::json(&lead.inside);
+                    s["arc_outside_mean_masked_psnr_db"] = OverTurns::json(&lead.outside);
+                }
+                s
+            })
             .collect();
         println!(
             "{}",
@@ -1174,7 +1266,7 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         );
     } else if !leads.is_empty() {
         println!("active - uniform, mean masked PSNR (dB), by turn of the scene (degrees)");
-        let mut header = format!("{:>5}", "views");
+        let mut header = format!("{:>5} {:<8}", "views", "over");
         for (turn, _, _) in &runs {
             header += &format!(" {:>7}", turn);
         }
@@ -1182,62 +1274,112 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
             "{header} {:>7} {:>7} {:>7} {:>7} {:>7}",
             "mean", "s.e.", "min", "max", "ahead"
         );
-        for Lead { views, mean, .. } in &leads {
-            let mut line = format!("{views:>5}");
-            for d in mean {
-                line += &format!(" {d:>+7.2}");
+        for lead in &leads {
+            let mut rows = vec![("all", &lead.mean), ("common", &lead.common)];
+            if a.arc.is_some() {
+                rows.push(("on arc", &lead.inside));
+                rows.push(("off arc", &lead.outside));
             }
-            let (m, lo, hi, error, ahead) = stats(mean);
-            let error = error.map_or_else(|| format!("{:>7}", "-"), |e| format!("{e:>7.2}"));
-            let ahead = format!("{ahead}/{}", mean.len());
-            println!("{line} {m:>+7.2} {error} {lo:>+7.2} {hi:>+7.2} {ahead:>7}");
+            for (over, by_turn) in rows {
+                let mut line = format!("{:>5} {over:<8}", lead.views);
+                for d in by_turn {
+                    line += &d.map_or_else(|| format!(" {:>7}", "-"), |d| format!(" {d:>+7.2}"));
+                }
+                let Some(o) = OverTurns::of(by_turn) else {
+                    println!("{line}");
+                    continue;
+                };
+                let error = o
+                    .error
+                    .map_or_else(|| format!("{:>7}", "-"), |e| format!("{e:>7.2}"));
+                let ahead = format!("{}/{}", o.ahead, o.turns);
+                println!(
+                    "{line} {:>+7.2} {error} {:>+7.2} {:>+7.2} {ahead:>7}",
+                    o.mean, o.min, o.max
+                );
+            }
         }
     }
     Ok(())
 }
 
 /// The JSON of an evaluation's results: per strategy, its checkpoints.
-fn results_json(results: &[aibr::StrategyEval]) -> Vec<serde_json::Value> {
+fn results_json(results: &[aibr::StrategyEval], arc: Option<&ArcReport>) -> Vec<serde_json::Value> {
     results
         .iter()
         .map(|r| {
-            serde_json::json!({
-                "strategy": r.strategy.name(),
-                "checkpoints": r.checkpoints.iter().map(|c| serde_json::json!({
-                    "views": c.views,
-                    "evaluated_views": c.evaluated,
-                    "mean_masked_psnr_db": c.mean_psnr,
-                    "pooled_masked_psnr_db": c.pooled_psnr,
-                    "mean_masked_ssim": c.mean_ssim,
-                    "worst_arc_psnr_db": c.worst_arc_psnr,
-                    "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
-                    "pans_deg": c.pans.iter().map(|p| p.degrees()).collect::<Vec<_>>(),
-                    "geometry": c.geometry.map(|g| serde_json::json!({
-                        "accuracy_voxels": g.accuracy_voxels,
-                        "completeness": g.completeness,
-                        "surface_voxels": g.surface_voxels,
-                    })),
-                    "common_angles": c.common.map(|k| serde_json::json!({
-                        "angles": k.angles,
-                        "mean_masked_psnr_db": k.mean_psnr,
-                        "pooled_masked_psnr_db": k.pooled_psnr,
-                        "mean_masked_ssim": k.mean_ssim,
-                    })),
-                    "novel_views": c.novel.iter().map(|v| serde_json::json!({
-                        "pan_deg": v.pan.degrees(),
-                        "masked_psnr_db": v.psnr,
-                        "masked_ssim": v.ssim,
-                    })).collect::<Vec<_>>(),
-                })).collect::<Vec<_>>(),
-            })
+            let checkpoints: Vec<_> = r
+                .checkpoints
+                .iter()
+                .map(|c| checkpoint_json(c, arc))
+                .collect();
+            serde_json::json!({ "strategy": r.strategy.name(), "checkpoints": checkpoints })
         })
         .collect()
 }
 
+/// The JSON of one checkpoint; with `arc`, its figures on and off the arc too.
+fn checkpoint_json(c: &aibr::Checkpoint, arc: Option<&ArcReport>) -> serde_json::Value {
+    let figures = |f: Option<aibr::ViewFigures>| {
+        f.map(|k| {
+            serde_json::json!({
+                "angles": k.angles,
+                "mean_masked_psnr_db": k.mean_psnr,
+                "pooled_masked_psnr_db": k.pooled_psnr,
+                "mean_masked_ssim": k.mean_ssim,
+            })
+        })
+    };
+    let mut checkpoint = serde_json::json!({
+        "views": c.views,
+        "evaluated_views": c.evaluated,
+        "mean_masked_psnr_db": c.mean_psnr,
+        "pooled_masked_psnr_db": c.pooled_psnr,
+        "mean_masked_ssim": c.mean_ssim,
+        "worst_arc_psnr_db": c.worst_arc_psnr,
+        "worst_arc_deg": [c.worst_arc.0.degrees(), c.worst_arc.1.degrees()],
+        "pans_deg": c.pans.iter().map(|p| p.degrees()).collect::<Vec<_>>(),
+        "geometry": c.geometry.map(|g| serde_json::json!({
+            "accuracy_voxels": g.accuracy_voxels,
+            "completeness": g.completeness,
+            "surface_voxels": g.surface_voxels,
+        })),
+        "common_angles": figures(c.common),
+        "novel_views": c.novel.iter().map(|v| serde_json::json!({
+            "pan_deg": v.pan.degrees(),
+            "masked_psnr_db": v.psnr,
+            "masked_ssim": v.ssim,
+        })).collect::<Vec<_>>(),
+    });
+    if let Some(r) = arc {
+        let split = c.split(&r.arc, r.turn);
+        checkpoint["arc"] = serde_json::json!({
+            "from_deg": r.arc.from.degrees(),
+            "to_deg": r.arc.to.degrees(),
+            "scene_turn_deg": r.turn.degrees(),
+            "captured_on_arc": split.captured_inside,
+            "on_arc": figures(split.inside),
+            "off_arc": figures(split.outside),
+        });
+    }
+    checkpoint
+}
+
 /// The short table of an evaluation: one line per strategy and checkpoint.
-fn print_eval_table(results: &[aibr::StrategyEval]) {
+fn print_eval_table(results: &[aibr::StrategyEval], arc: Option<&ArcReport>) {
+    // With --arc, a column of the mean PSNR on and off the arc, and the captured views on it.
+    let arc_header = arc.map_or(String::new(), |r| {
+        format!(
+            " {:>24}",
+            format!(
+                "{:.0}:{:.0} on / off / n",
+                r.arc.from.degrees(),
+                r.arc.to.degrees()
+            )
+        )
+    });
     println!(
-        "{:<8} {:>5} {:>12} {:>14} {:>8} {:>16} {:>20} {:>18}",
+        "{:<8} {:>5} {:>12} {:>14} {:>8} {:>16} {:>20} {:>18}{arc_header}",
         "strategy",
         "views",
         "PSNR (dB)",
@@ -1257,8 +1399,23 @@ fn print_eval_table(results: &[aibr::StrategyEval]) {
             let common = c.common.map_or("-".to_string(), |k| {
                 format!("{:.2} / {}", k.mean_psnr, k.angles)
             });
+            let on_arc = arc.map_or(String::new(), |r| {
+                let split = c.split(&r.arc, r.turn);
+                let mean = |f: Option<aibr::ViewFigures>| {
+                    f.map_or("-".to_string(), |f| format!("{:.2}", f.mean_psnr))
+                };
+                format!(
+                    " {:>24}",
+                    format!(
+                        "{} / {} / {}",
+                        mean(split.inside),
+                        mean(split.outside),
+                        split.captured_inside
+                    )
+                )
+            });
             println!(
-                "{:<8} {:>5} {:>12.2} {:>14.2} {:>8.3} {:>16.2} {:>20} {:>18}",
+                "{:<8} {:>5} {:>12.2} {:>14.2} {:>8.3} {:>16.2} {:>20} {:>18}{on_arc}",
                 r.strategy.name(),
                 c.views,
                 c.mean_psnr,

@@ -767,10 +767,19 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
 #[test]
 fn eval_over_turns_of_the_scene() -> TestResult {
     let work = temp("eval-turns");
-    let options = ["--max", "5", "--checkpoints", "5", "--turns", "0,-30"];
+    let options = [
+        "--max",
+        "5",
+        "--checkpoints",
+        "5",
+        "--turns",
+        "0,-30",
+        "--arc",
+        "0:180",
+    ];
     let v = small_eval_json(&options, &work)?;
     let turns = v["turns"].as_array().ok_or("no turns")?;
-    let mut leads = Vec::new();
+    let (mut leads, mut on_arc_leads) = (Vec::new(), Vec::new());
     for (t, (turn, rig, folder)) in turns.iter().zip([
         (0.0, "sim:lambertian", "turn0/lambertian-active"),
         (-30.0, "sim:lambertian@-30", "turn-30/lambertian@-30-active"),
@@ -794,6 +803,33 @@ fn eval_over_turns_of_the_scene() -> TestResult {
             psnr("uniform").ok_or("uniform")?,
         );
         leads.push(a - u);
+        // The arc of the object's pans 0 to 180: the novel views whose pan plus the turn lies
+        // on it, split from the others, every novel view on one side or the other.
+        let mut on_arc_mean = Vec::new();
+        for r in t["results"].as_array().ok_or("no results")? {
+            let c = &r["checkpoints"][0];
+            let arc = &c["arc"];
+            let scene_turn = arc["scene_turn_deg"].as_f64().ok_or("no turn")?;
+            assert!((scene_turn - turn).abs() < 1e-9, "{scene_turn}");
+            let (mut on, mut off, mut sum) = (0, 0, 0.0);
+            for view in c["novel_views"].as_array().ok_or("no novel views")? {
+                let pan = view["pan_deg"].as_f64().ok_or("pan")? + turn;
+                if (0.0..=180.0).contains(&pan) {
+                    on += 1;
+                    sum += view["masked_psnr_db"].as_f64().ok_or("psnr")?;
+                } else {
+                    off += 1;
+                }
+            }
+            assert_eq!(arc["on_arc"]["angles"].as_u64(), Some(on));
+            assert_eq!(arc["off_arc"]["angles"].as_u64(), Some(off));
+            let mean = arc["on_arc"]["mean_masked_psnr_db"]
+                .as_f64()
+                .ok_or("on arc")?;
+            assert!((mean - sum / on as f64).abs() < 1e-9);
+            on_arc_mean.push(mean);
+        }
+        on_arc_leads.push(on_arc_mean[0] - on_arc_mean[1]);
     }
     let summary = &v["active_minus_uniform"][0];
     assert_eq!(summary["views"].as_u64(), Some(5));
@@ -814,6 +850,26 @@ fn eval_over_turns_of_the_scene() -> TestResult {
     assert!((error - (leads[0] - leads[1]).abs() / 2.0).abs() < 1e-12);
     let ahead = leads.iter().filter(|&&x| x > 0.0).count();
     assert_eq!(over["turns_ahead"].as_u64(), Some(ahead as u64));
+    // The leads on the arc, made of the per-turn figures (active listed first).
+    let on_arc: Vec<f64> = summary["arc_inside_mean_masked_psnr_db"]["by_turn"]
+        .as_array()
+        .ok_or("no leads on the arc")?
+        .iter()
+        .filter_map(|x| x.as_f64())
+        .collect();
+    assert_eq!(on_arc, on_arc_leads);
+    assert!(summary["common_angles_mean_masked_psnr_db"]["mean"].is_f64());
+    // An arc that is no arc, or no numbers, is refused before anything runs.
+    for arc in ["10:370", "a:b", "10"] {
+        let refused = temp("eval-arc-refused");
+        let out = aibr()
+            .args(["eval", "--arc", arc, "--work"])
+            .arg(&refused)
+            .output()?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains("--arc"), "{err}");
+        assert!(!refused.exists());
+    }
     // Turns need an unturned synthetic rig, and every turn is checked before any runs.
     for (rig, turns) in [("sim:lambertian@5", "0,10"), ("sim:lambertian", "0,400")] {
         let refused = temp("eval-turns-refused");
