@@ -434,20 +434,23 @@ impl Sweep {
     }
 }
 
+/// The part `name` of an argument `text` (`v`, such as the FROM of FROM:TO), as a finite
+/// number of degrees, or the error that names both.
+fn degrees_in(text: &str, name: &str, v: &str) -> std::result::Result<f64, String> {
+    v.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| format!("{text:?}: {name} {v:?} is not a number of degrees"))
+}
+
 fn parse_arc(text: &str) -> std::result::Result<aibr::ObjectArc, String> {
     let Some((from, to)) = text.split_once(':') else {
         return Err(format!(
             "{text:?}: expected FROM:TO in degrees, such as 20:160"
         ));
     };
-    let number = |name: &str, v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("{text:?}: {name} {v:?} is not a number of degrees"))
-    };
-    let (from, to) = (number("FROM", from)?, number("TO", to)?);
+    let (from, to) = (degrees_in(text, "FROM", from)?, degrees_in(text, "TO", to)?);
     if (to - from).rem_euclid(360.0) == 0.0 {
         return Err(format!(
             "{text:?}: FROM and TO are the same angle, which makes no arc"
@@ -466,17 +469,10 @@ fn parse_sweep(text: &str) -> std::result::Result<Sweep, String> {
             "{text:?}: expected FROM:TO:STEP in degrees, such as 20:150:1"
         ));
     };
-    let number = |name: &str, v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("{text:?}: {name} {v:?} is not a number of degrees"))
-    };
     let sweep = Sweep {
-        from: number("FROM", from)?,
-        to: number("TO", to)?,
-        step: number("STEP", step)?,
+        from: degrees_in(text, "FROM", from)?,
+        to: degrees_in(text, "TO", to)?,
+        step: degrees_in(text, "STEP", step)?,
     };
     if sweep.step == 0.0 || (sweep.to - sweep.from) * sweep.step < 0.0 {
         return Err(format!(
@@ -1185,16 +1181,12 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
     // Active - uniform at each checkpoint, one figure per turn (every turn ran the same
     // strategies and checkpoints; without both strategies there is no lead).
     let mut leads: Vec<Lead> = Vec::new();
-    for (turn, spec, results) in &runs {
+    for (_, spec, results) in &runs {
         let of = |s: Strategy| results.iter().find(|r| r.strategy == s);
         let (Some(active), Some(uniform)) = (of(Strategy::Active), of(Strategy::Uniform)) else {
             continue;
         };
         let arc = arc_report(a, spec)?;
-        debug_assert!(
-            arc.as_ref()
-                .is_none_or(|r| (r.turn.degrees() - turn).abs() < 1e-9)
-        );
         for (k, (x, y)) in active
             .checkpoints
             .iter()

@@ -833,13 +833,16 @@ fn eval_over_turns_of_the_scene() -> TestResult {
     }
     let summary = &v["active_minus_uniform"][0];
     assert_eq!(summary["views"].as_u64(), Some(5));
-    let listed: Vec<f64> = summary["mean_masked_psnr_db"]["by_turn"]
-        .as_array()
-        .ok_or("no leads")?
-        .iter()
-        .filter_map(|x| x.as_f64())
-        .collect();
-    assert_eq!(listed, leads);
+    // A summarised lead's figures, turn by turn.
+    let by_turn = |measure: &str| -> Result<Vec<f64>, String> {
+        Ok(summary[measure]["by_turn"]
+            .as_array()
+            .ok_or(format!("no {measure}"))?
+            .iter()
+            .filter_map(|x| x.as_f64())
+            .collect())
+    };
+    assert_eq!(by_turn("mean_masked_psnr_db")?, leads);
     let over = &summary["mean_masked_psnr_db"];
     let mean = over["mean"].as_f64().ok_or("no mean")?;
     assert!((mean - (leads[0] + leads[1]) / 2.0).abs() < 1e-12);
@@ -851,13 +854,7 @@ fn eval_over_turns_of_the_scene() -> TestResult {
     let ahead = leads.iter().filter(|&&x| x > 0.0).count();
     assert_eq!(over["turns_ahead"].as_u64(), Some(ahead as u64));
     // The leads on the arc, made of the per-turn figures (active listed first).
-    let on_arc: Vec<f64> = summary["arc_inside_mean_masked_psnr_db"]["by_turn"]
-        .as_array()
-        .ok_or("no leads on the arc")?
-        .iter()
-        .filter_map(|x| x.as_f64())
-        .collect();
-    assert_eq!(on_arc, on_arc_leads);
+    assert_eq!(by_turn("arc_inside_mean_masked_psnr_db")?, on_arc_leads);
     assert!(summary["common_angles_mean_masked_psnr_db"]["mean"].is_f64());
     // An arc that is no arc, or no numbers, is refused before anything runs.
     for arc in ["10:370", "a:b", "10"] {
