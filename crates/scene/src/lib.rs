@@ -12,9 +12,9 @@
 //! - [`Scene::render`] gives a [`Frame`]: RGB (f32 and 8-bit), depth along the optical axis
 //!   (infinite on the backdrop) and the object mask, with optional seeded Gaussian noise,
 //!   for any `aibr_camera::Camera` (distortion included); the same bytes at any thread count;
-//! - a [`catalogue`] of named scenes (`mirror`, `head`, `chair`, `lambertian`), each with a
-//!   default ring rig, a ground-truth volume ([`Scene::bounds`]) and samples of its visible
-//!   true surface ([`Scene::surface_samples`]).
+//! - a [`catalogue`] of named scenes (`mirror`, `mirror-broad`, `head`, `chair`, `lambertian`),
+//!   each with a default ring rig, a ground-truth volume ([`Scene::bounds`]) and samples of
+//!   its visible true surface ([`Scene::surface_samples`]).
 //!
 //! ```
 //! use aibr_camera::Angle;
