@@ -530,7 +530,7 @@ geometry, and which views are taken changes it. Made by <code>aibr demo</code> i
 {elapsed:.0} s.</p>
 <p>One run measures one placement of the object on the turntable, and on <code>mirror</code>
 that alone can favour either strategy by a decibel at 24 and 36 views: <code>aibr eval --rig
-sim:{scene} --turns 0,2.5,5,7.5,10,12.5,15,17.5,20,22.5,25,27.5 --arc 20:160</code> measures
+sim:{scene} --turns 0:27.5:2.5 --arc 20:160</code> measures
 twelve placements and the mirror's side apart (the project's figures: <code>docs/results.md</code>,
 "Session 24").</p>
 <h2>Results</h2>

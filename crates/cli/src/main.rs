@@ -274,16 +274,12 @@ struct EvalArgs {
     #[arg(long, default_value = "aibr-eval")]
     work: PathBuf,
     /// Evaluate a synthetic scene several times, turned on its turntable by each of these
-    /// angles in degrees (e.g. 0,10,20; sessions in --work/turnDEGREES), and summarise active
-    /// minus uniform over the turns (mean, its standard error, range, and at how many turns
-    /// active is ahead): one placement of the object can favour either strategy.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        allow_hyphen_values = true,
-        value_name = "DEGREES"
-    )]
-    turns: Vec<f64>,
+    /// angles in degrees (a list such as 0,10,20, or FROM:TO:STEP such as 0:27.5:2.5;
+    /// sessions in --work/turnDEGREES), and summarise active minus uniform over the turns
+    /// (mean, its standard error, range, and at how many turns active is ahead): one
+    /// placement of the object can favour either strategy.
+    #[arg(long, allow_hyphen_values = true, value_name = "DEGREES", value_parser = parse_turns)]
+    turns: Option<Turns>,
     /// Also report the figures of the novel views on this arc of the object's own pan
     /// angles, FROM:TO in degrees (e.g. 20:160, the side from which mirror's panel is seen),
     /// and of the others, with how many captured views lie on it; the arc turns with a
@@ -432,6 +428,53 @@ impl Sweep {
     fn angles(&self) -> impl Iterator<Item = f64> + '_ {
         (0..self.len()).map(|i| self.from + i as f64 * self.step)
     }
+}
+
+/// The turns of `aibr eval --turns`, degrees.
+#[derive(Debug, Clone)]
+struct Turns(Vec<f64>);
+
+/// The most turns one `--turns` may ask for (a run takes minutes each).
+const MAX_TURNS: usize = 360;
+
+fn parse_turns(text: &str) -> std::result::Result<Turns, String> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let turns = match parts.as_slice() {
+        [from, to, step] => {
+            let (from, to, step) = (
+                degrees_in(text, "FROM", from)?,
+                degrees_in(text, "TO", to)?,
+                degrees_in(text, "STEP", step)?,
+            );
+            if !(step > 0.0) || to < from {
+                return Err(format!(
+                    "{text:?}: STEP must be positive and TO at least FROM"
+                ));
+            }
+            let count = ((to - from) / step + 1e-9).floor() + 1.0;
+            if count > MAX_TURNS as f64 {
+                return Err(format!("{text:?}: more than {MAX_TURNS} turns"));
+            }
+            // Each turn computed from FROM, not summed step by step, and rounded to a
+            // nanodegree, so that 0:0.3:0.1 names its folders turn0.1, turn0.2, turn0.3.
+            (0..count as usize)
+                .map(|i| ((from + i as f64 * step) * 1e9).round() / 1e9)
+                .collect()
+        }
+        [_] => text
+            .split(',')
+            .map(|v| degrees_in(text, "turn", v))
+            .collect::<std::result::Result<Vec<_>, _>>()?,
+        _ => {
+            return Err(format!(
+                "{text:?}: expected a list of degrees such as 0,10,20, or FROM:TO:STEP such as 0:27.5:2.5"
+            ));
+        }
+    };
+    if turns.len() > MAX_TURNS {
+        return Err(format!("{text:?}: more than {MAX_TURNS} turns"));
+    }
+    Ok(Turns(turns))
 }
 
 /// The part `name` of an argument `text` (`v`, such as the FROM of FROM:TO), as a finite
@@ -1038,8 +1081,8 @@ fn eval_model(m: ModelArg) -> EvalModel {
 }
 
 fn eval(a: EvalArgs) -> Result<()> {
-    if !a.turns.is_empty() {
-        return eval_turns(&a);
+    if let Some(turns) = &a.turns {
+        return eval_turns(&a, &turns.0);
     }
     let results = run_eval(&a, &a.rig, &a.work)?;
     let arc = arc_report(&a, &a.rig)?;
@@ -1143,18 +1186,16 @@ impl OverTurns {
 
 /// `aibr eval --turns`: the evaluation once per turn of the scene, then active - uniform
 /// over the turns.
-fn eval_turns(a: &EvalArgs) -> Result<()> {
+fn eval_turns(a: &EvalArgs, turns: &[f64]) -> Result<()> {
     let scene = match a.rig.strip_prefix("sim:") {
         Some(scene) if !scene.contains('@') => scene,
         _ => bail!(
-            "--turns {:?}: needs an unturned synthetic rig (--rig sim:SCENE), not {:?}",
-            a.turns,
+            "--turns {turns:?}: needs an unturned synthetic rig (--rig sim:SCENE), not {:?}",
             a.rig
         ),
     };
     // Unturned, the plain rig, so that its sessions are those of `--rig sim:SCENE`.
-    let specs: Vec<String> = a
-        .turns
+    let specs: Vec<String> = turns
         .iter()
         .map(|&turn| {
             if turn == 0.0 {
@@ -1169,7 +1210,7 @@ fn eval_turns(a: &EvalArgs) -> Result<()> {
         aibr::SimRig::from_spec(spec).with_context(|| format!("--turns: {spec:?}"))?;
     }
     let mut runs = Vec::new();
-    for (&turn, spec) in a.turns.iter().zip(specs) {
+    for (&turn, spec) in turns.iter().zip(specs) {
         let results = run_eval(a, &spec, &a.work.join(format!("turn{turn}")))?;
         if !a.json {
             println!("{spec}");
@@ -1639,5 +1680,24 @@ mod tests {
         assert!(error("0:30:-1").contains("turn from FROM towards TO"));
         assert!(error("0:360:0.001").contains("more than 100000"));
         assert!(error("0:1e300:1").contains("more than 100000"));
+    }
+
+    #[test]
+    fn turns_are_a_list_or_a_range_and_name_their_folders_plainly() {
+        let turns = |text: &str| parse_turns(text).map(|t| t.0);
+        assert_eq!(turns("0,10,-20"), Ok(vec![0.0, 10.0, -20.0]));
+        assert_eq!(turns("5"), Ok(vec![5.0]));
+        assert_eq!(turns("0:27.5:2.5").map(|t| t.len()), Ok(12));
+        assert_eq!(turns("0:27.5:2.5").map(|t| t[11]), Ok(27.5));
+        // Computed from FROM and rounded, so the folders read turn0.1, turn0.2, turn0.3.
+        let tenths = turns("0:0.3:0.1").unwrap_or_default();
+        let names: Vec<String> = tenths.iter().map(|t| format!("turn{t}")).collect();
+        assert_eq!(names, ["turn0", "turn0.1", "turn0.2", "turn0.3"]);
+        let error = |text: &str| parse_turns(text).err().unwrap_or_default();
+        assert!(error("0,ten").contains("turn \"ten\""));
+        assert!(error("0:10").contains("expected a list"));
+        assert!(error("10:0:5").contains("TO at least FROM"));
+        assert!(error("0:10:0").contains("STEP must be positive"));
+        assert!(error("0:360:0.5").contains("more than 360"));
     }
 }
