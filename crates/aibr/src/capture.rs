@@ -6,12 +6,13 @@ use std::time::Instant;
 use aibr_camera::{Aabb, Angle, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
-    ConsistencyParams, PairScore, PlanParams, TurntableLimits, plan_next, score_pairs,
+    ConsistencyParams, PairScore, PlanParams, TurntableLimits, edge_on_pans, plan_next_aimed,
+    score_pairs,
 };
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_voxel::{
-    CarvingParams, ColoringParams, Reconstruction, View, VoxelGrid, check_cameras_above,
-    space_carving, voxel_coloring,
+    CarvingParams, ColoringParams, FaceParams, Reconstruction, View, VoxelGrid,
+    check_cameras_above, planar_faces, space_carving, voxel_coloring,
 };
 use image::GrayImage;
 
@@ -69,6 +70,10 @@ pub struct CaptureParams {
     /// The planner ranks arcs by score times width to this power (default 3,
     /// [`PlanParams::width_power`]).
     pub width_power: f64,
+    /// How far from an arc's middle the edge-on pan of a flat face of the model may draw the
+    /// next view, as a share of the arc's half-width (default 0.5; 0 splits every arc at its
+    /// middle; [`PlanParams::aim_reach`]).
+    pub aim_reach: f64,
 }
 
 impl Default for CaptureParams {
@@ -81,6 +86,7 @@ impl Default for CaptureParams {
             grid: 96,
             consistent_below: 0.0,
             width_power: PlanParams::default().width_power,
+            aim_reach: PlanParams::default().aim_reach,
         }
     }
 }
@@ -115,6 +121,7 @@ impl CaptureParams {
         PlanParams {
             consistent_below: self.consistent_below,
             width_power: self.width_power,
+            aim_reach: self.aim_reach,
         }
     }
 }
@@ -371,8 +378,9 @@ pub fn renderer_with<'m>(
 ///
 /// 1. The initial views, uniform over the range (for the uniform strategy, all `max`).
 /// 2. Active: reconstruct every `refine_every` captures; score each arc between neighbouring
-///    views; split the worst at its middle angle; capture there. Stop at the budget, or when
-///    every arc is consistent or too short to split.
+///    views; split the worst at its middle angle, or at a pan near it that sees a flat face
+///    of the model edge-on ([`CaptureParams::aim_reach`]); capture there. Stop at the budget,
+///    or when every arc is consistent or too short to split.
 pub fn capture<R: Turntable + FrameSource>(
     rig: &mut R,
     session: &mut Session,
@@ -404,6 +412,7 @@ pub fn capture<R: Turntable + FrameSource>(
     if params.strategy == Strategy::Active {
         let volume = session.volume()?;
         let mut scores: Vec<PairScore> = Vec::new();
+        let mut aims: Vec<Angle> = Vec::new();
         let mut since_refine = 0usize;
         // On resume, the views after the initial ones were planned from reconstructions made
         // every `refine_every` captures: restart the count where an uninterrupted run was.
@@ -414,7 +423,7 @@ pub fn capture<R: Turntable + FrameSource>(
         if extra % params.refine_every != 0 {
             // Rebuild the scores the uninterrupted run had at its last refinement.
             let refined_at = params.initial + extra - extra % params.refine_every;
-            scores = score_views(
+            (scores, aims) = score_views(
                 &views[..refined_at],
                 &volume,
                 params,
@@ -436,7 +445,7 @@ pub fn capture<R: Turntable + FrameSource>(
         while session.file().views.len() < params.max {
             if must_refine || since_refine >= params.refine_every {
                 views.extend(session.load_views_from(views.len())?);
-                scores = score_views(
+                (scores, aims) = score_views(
                     &views,
                     &volume,
                     params,
@@ -452,7 +461,8 @@ pub fn capture<R: Turntable + FrameSource>(
                 must_refine = false;
             }
             let pans = session.pans();
-            let Some(next) = plan_next(&pans, &scores, &limits, &params.plan())? else {
+            let Some(next) = plan_next_aimed(&pans, &scores, &aims, &limits, &params.plan())?
+            else {
                 stopped_early = true;
                 break;
             };
@@ -538,7 +548,7 @@ pub fn pair_scores(
     };
     let mut timings = StageTimings::default();
     let mut algorithm = "none";
-    let scores = score_views(
+    let (scores, _) = score_views(
         views,
         &session.volume()?,
         &params,
@@ -560,7 +570,7 @@ fn score_views(
     range: &PanRange,
     timings: &mut StageTimings,
     algorithm: &mut &'static str,
-) -> Result<Vec<PairScore>> {
+) -> Result<(Vec<PairScore>, Vec<Angle>)> {
     let masks = masks_of(views)?;
     let t = Instant::now();
     let (rec, alg) = reconstruct_views(
@@ -579,6 +589,31 @@ fn score_views(
         .map(|v| Angle::from_radians(v.record.pan_rad))
         .collect();
     let scores = score_pairs(&rec.model, &vs, &pans, range, &ConsistencyParams::default())?;
+    let aims = if params.aim_reach > 0.0 {
+        face_aims(&rec.model, views, range)?
+    } else {
+        Vec::new()
+    };
     timings.scoring_ms += t.elapsed().as_secs_f64() * 1e3;
-    Ok(scores)
+    Ok((scores, aims))
+}
+
+/// The pans of `range` that see a flat face of `model` edge-on: where the planner aims.
+fn face_aims(
+    model: &aibr_voxel::VoxelModel,
+    views: &[LoadedView],
+    range: &PanRange,
+) -> Result<Vec<Angle>> {
+    let Some(first) = views.first() else {
+        return Ok(Vec::new());
+    };
+    // The camera centre at pan 0: the first view's, turned back by its pan.
+    let turn =
+        nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), first.record.pan_rad);
+    let centre_at_zero = turn * first.camera.centre();
+    let faces = planar_faces(model, &FaceParams::default())?;
+    Ok(faces
+        .iter()
+        .flat_map(|f| edge_on_pans(f, &centre_at_zero, range))
+        .collect())
 }

@@ -77,6 +77,10 @@ pub struct ParametersRecord {
     /// planned with that weight.
     #[serde(default = "ParametersRecord::width_power_before_recorded")]
     pub width_power: f64,
+    /// How far from an arc's middle a flat face's edge-on pan may draw a view; 0 in files
+    /// written before it was recorded, which split every arc at its middle.
+    #[serde(default)]
+    pub aim_reach: f64,
 }
 
 impl ParametersRecord {
@@ -90,6 +94,7 @@ impl ParametersRecord {
             grid: params.grid,
             consistent_below: params.consistent_below,
             width_power: params.width_power,
+            aim_reach: params.aim_reach,
         }
     }
 
@@ -395,6 +400,11 @@ impl Session {
                 have.width_power.to_string(),
                 given.width_power.to_string(),
             ),
+            (
+                "aim_reach",
+                have.aim_reach.to_string(),
+                given.aim_reach.to_string(),
+            ),
         ];
         match fields
             .into_iter()
@@ -603,6 +613,7 @@ mod tests {
             parameters: ParametersRecord::of(&crate::CaptureParams {
                 consistent_below: x[3].abs(),
                 width_power: x[4].abs(),
+                aim_reach: x[5].abs().min(1.0),
                 ..crate::CaptureParams::default()
             }),
             views: pans

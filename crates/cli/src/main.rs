@@ -223,6 +223,16 @@ struct PlanArgs {
         allow_hyphen_values = true
     )]
     width_power: f64,
+    /// The active planner moves a view from the middle of the arc it splits to a pan that
+    /// sees a flat face of the model edge-on when one lies within this share of the arc's
+    /// half-width from the middle (0 to 1; 0 always splits at the middle).
+    #[arg(
+        long,
+        default_value_t = CaptureParams::default().aim_reach,
+        value_name = "SHARE",
+        allow_hyphen_values = true
+    )]
+    aim_reach: f64,
 }
 
 #[derive(clap::Args)]
@@ -875,6 +885,7 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
         grid: a.grid,
         consistent_below: a.consistent_below,
         width_power: a.plan.width_power,
+        aim_reach: a.plan.aim_reach,
     };
     let mut session = if a.resume {
         let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
@@ -1044,6 +1055,7 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
             max,
             grid: a.capture_grid,
             width_power: a.plan.width_power,
+            aim_reach: a.plan.aim_reach,
             ..CaptureParams::default()
         },
         checkpoints,

@@ -347,6 +347,21 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
         "{err}"
     );
     assert_success(&resume(&["--width-power", "1"])?);
+    // Likewise the aim reach: split at the middle (0) before it was recorded.
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&file)?)?;
+    json["parameters"]
+        .as_object_mut()
+        .ok_or("no parameters")?
+        .remove("aim_reach")
+        .ok_or("aim_reach not recorded")?;
+    std::fs::write(&file, serde_json::to_vec_pretty(&json)?)?;
+    let out = resume(&["--width-power", "1"])?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("aim_reach 0, not 0.5"),
+        "{err}"
+    );
+    assert_success(&resume(&["--width-power", "1", "--aim-reach", "0"])?);
 
     // A corrupt view: checksum mismatch, named.
     let view = dir.join("views/0002.png");
@@ -562,12 +577,14 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
         .arg(temp("negative"))
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("consistent_below"));
-    // A width power or a scene turn out of its domain is refused, naming it, before a
-    // session folder is made.
+    // A width power, an aim reach or a scene turn out of its domain is refused, naming it,
+    // before a session folder is made.
     for (flag, bad, named) in [
         ("--width-power", "-1", "width_power"),
         ("--width-power", "9", "width_power"),
         ("--width-power", "NaN", "width_power"),
+        ("--aim-reach", "-0.5", "aim_reach"),
+        ("--aim-reach", "1.5", "aim_reach"),
         ("--rig", "sim:mirror@x", "scene turn"),
         ("--rig", "sim:mirror@190", "scene turn"),
     ] {

@@ -10,7 +10,12 @@
 //!   outranks a small one; per-pixel error maps come with them.
 //! - [`plan_next`]: split the worst pair at its middle angle, within the turntable's range,
 //!   quantised to its steps, never within a step of an existing view; arcs are ranked by
-//!   score times width to a power ([`PlanParams`]).
+//!   score times width to a power ([`PlanParams`]). [`plan_next_aimed`] also takes aims,
+//!   pans worth a view of their own: near the middle of the chosen arc, the aim nearest it
+//!   replaces the middle. The capture loop aims at [`edge_on_pans`], the pans from which a
+//!   flat face of the model (`aibr_voxel::planar_faces`) is seen edge-on: a face seen only
+//!   at a slant comes out of voxel coloring a few voxels too fat, and a view in its plane
+//!   cuts that away.
 //! - [`foreground`]: masks from a dark background, or from the median backdrop of the views.
 //!
 //! ```
@@ -46,4 +51,6 @@ pub mod planner;
 
 pub use error::{Error, Result};
 pub use estimator::{ConsistencyParams, PairScore, ring_pairs, score_pairs};
-pub use planner::{PlanParams, Proposal, TurntableLimits, plan_next};
+pub use planner::{
+    AIM_DONE_DEG, PlanParams, Proposal, TurntableLimits, edge_on_pans, plan_next, plan_next_aimed,
+};

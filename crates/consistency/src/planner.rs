@@ -1,6 +1,8 @@
 //! The split planner: where to capture the next view.
 
 use aibr_camera::{Angle, PanRange};
+use aibr_voxel::PlanarFace;
+use nalgebra::Point3;
 
 use crate::error::{Error, Result};
 use crate::estimator::PairScore;
@@ -57,6 +59,11 @@ pub struct PlanParams {
     /// split wide arcs first unless a narrow one scores far worse, which keeps the views
     /// nearer to even, the measure a mean of per-view PSNRs rewards (`docs/consistency.md`).
     pub width_power: f64,
+    /// How far from the middle of the arc to split an aim may draw the proposal, as a share
+    /// of the arc's half-width (default 0.5: the middle half of the arc; 0 never moves it).
+    /// Aims are the pans that see a flat face of the model edge-on ([`edge_on_pans`]): a
+    /// view there cuts away the wedge of visual hull a face seen only at a slant keeps.
+    pub aim_reach: f64,
 }
 
 impl Default for PlanParams {
@@ -64,6 +71,7 @@ impl Default for PlanParams {
         PlanParams {
             consistent_below: 0.0,
             width_power: 3.0,
+            aim_reach: 0.5,
         }
     }
 }
@@ -89,11 +97,64 @@ impl PlanParams {
                 reason: "must be between 0 and 8",
             });
         }
+        if !(0.0..=1.0).contains(&self.aim_reach) {
+            return Err(Error::InvalidParameter {
+                name: "aim_reach",
+                value: self.aim_reach,
+                reason: "must be between 0 and 1",
+            });
+        }
         Ok(())
     }
 }
 
-/// Splits the worst arc at its middle angle.
+/// An aim is done when a view lies within this angle of it (1 degree): the faces of
+/// `docs/results.md` came out thin with a camera centre 1-13 mm from their plane, 0.1-1.4
+/// degrees of pan at the catalogue's 0.55 m.
+pub const AIM_DONE_DEG: f64 = 1.0;
+
+/// The pans of `range` from which a camera on the turntable's circle sees `face` edge-on:
+/// where its centre lies in the face's plane. `centre_at_zero` is the camera centre at pan 0
+/// in the model's (turntable) frame; the camera circles the Z axis, its centre at pan `t`
+/// being `Rot_z(-t) * centre_at_zero` (`aibr-camera`'s convention). Empty when the circle
+/// misses the plane.
+pub fn edge_on_pans(
+    face: &PlanarFace,
+    centre_at_zero: &Point3<f64>,
+    range: &PanRange,
+) -> Vec<Angle> {
+    let n = face.normal;
+    let (m, rho) = (n.x.hypot(n.y), centre_at_zero.x.hypot(centre_at_zero.y));
+    if !(m * rho > 1e-12) {
+        return Vec::new();
+    }
+    // n . Rot_z(-t) c = (Rot_z(t) n) . c = m rho cos(phi + t - alpha) + n_z c_z.
+    let q = (face.offset_m - n.z * centre_at_zero.z) / (m * rho);
+    if !(q.abs() <= 1.0) {
+        return Vec::new();
+    }
+    let base = centre_at_zero.y.atan2(centre_at_zero.x) - n.y.atan2(n.x);
+    let spread = q.acos();
+    let mut out: Vec<Angle> = [base - spread, base + spread]
+        .into_iter()
+        .filter_map(|t| range.normalize(Angle::from_radians(t)))
+        .collect();
+    out.dedup_by(|a, b| a.wrapped_difference(*b).radians().abs() < 1e-9);
+    out
+}
+
+/// Splits the worst arc at its middle angle, or at an aim near it ([`plan_next_aimed`] with
+/// no aims).
+pub fn plan_next(
+    pans: &[Angle],
+    scores: &[PairScore],
+    limits: &TurntableLimits,
+    params: &PlanParams,
+) -> Result<Option<Proposal>> {
+    plan_next_aimed(pans, scores, &[], limits, params)
+}
+
+/// Splits the worst arc at its middle angle, or at an aim near it.
 ///
 /// Arcs are ranked by their score times their angular width (radians) to the power
 /// `params.width_power`: an inconsistency the model cannot explain (the hole voxel coloring
@@ -103,13 +164,29 @@ impl PlanParams {
 /// well); the first whose middle angle, quantised to the turntable's steps, lies inside the
 /// range and at least one step from every existing view is proposed. `Ok(None)` when every
 /// arc is consistent or too short to split; an error when `params` are out of their domain.
-pub fn plan_next(
+///
+/// `aims` are pans worth a view of their own (the edge-on pans of the model's flat faces,
+/// [`edge_on_pans`]); those with a view within [`AIM_DONE_DEG`] are done. When one that is
+/// not lies inside the chosen arc within `params.aim_reach` of its half-width from the
+/// middle, the one nearest the middle is proposed instead of the middle: the arc to split is
+/// the estimate's choice, where in it the aims' (`docs/consistency.md`).
+pub fn plan_next_aimed(
     pans: &[Angle],
     scores: &[PairScore],
+    aims: &[Angle],
     limits: &TurntableLimits,
     params: &PlanParams,
 ) -> Result<Option<Proposal>> {
     params.validate()?;
+    let done = AIM_DONE_DEG.to_radians();
+    let open_aims: Vec<Angle> = aims
+        .iter()
+        .copied()
+        .filter(|a| {
+            pans.iter()
+                .all(|p| a.wrapped_difference(*p).radians().abs() > done)
+        })
+        .collect();
     // The arc from a to b, in the pair's own order (b after a, a turn later across the wrap).
     let gap = |s: &PairScore| -> Option<f64> {
         let (pa, pb) = (pans.get(s.a)?, pans.get(s.b)?);
@@ -130,20 +207,31 @@ pub fn plan_next(
         let (Some(pa), Some(gap)) = (pans.get(s.a), gap(s)) else {
             continue;
         };
+        let far_enough = |pan: Angle| {
+            pans.iter()
+                .all(|p| pan.wrapped_difference(*p).radians().abs() >= step - 1e-9)
+        };
+        // The aim nearest the middle within reach, as an offset from the arc's start.
+        let reach = params.aim_reach * gap / 2.0;
+        let aimed = open_aims
+            .iter()
+            .map(|a| (a.radians() - pa.radians()).rem_euclid(std::f64::consts::TAU))
+            .filter(|o| *o > 0.0 && *o < gap && (o - gap / 2.0).abs() <= reach)
+            .min_by(|x, y| (x - gap / 2.0).abs().total_cmp(&(y - gap / 2.0).abs()))
+            .and_then(|o| {
+                let pan = limits.quantise(Angle::from_radians(pa.radians() + o));
+                limits.range.normalize(pan).filter(|p| far_enough(*p))
+            });
         let middle = limits.quantise(Angle::from_radians(pa.radians() + gap / 2.0));
-        let Some(middle) = limits.range.normalize(middle) else {
+        let Some(pan) = aimed.or_else(|| limits.range.normalize(middle).filter(|p| far_enough(*p)))
+        else {
             continue;
         };
-        let far_enough = pans
-            .iter()
-            .all(|p| middle.wrapped_difference(*p).radians().abs() >= step - 1e-9);
-        if far_enough {
-            return Ok(Some(Proposal {
-                pan: middle,
-                pair: (s.a, s.b),
-                score: s.score,
-            }));
-        }
+        return Ok(Some(Proposal {
+            pan,
+            pair: (s.a, s.b),
+            score: s.score,
+        }));
     }
     Ok(None)
 }

@@ -3,12 +3,13 @@
 use aibr_camera::{Angle, Camera, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
-    ConsistencyParams, Error, PairScore, PlanParams, TurntableLimits, plan_next, ring_pairs,
-    score_pairs,
+    AIM_DONE_DEG, ConsistencyParams, Error, PairScore, PlanParams, TurntableLimits, edge_on_pans,
+    plan_next, plan_next_aimed, ring_pairs, score_pairs,
 };
 use aibr_scene::{Frame, RenderOptions, catalogue};
-use aibr_voxel::{ColoringParams, View, VoxelGrid, VoxelModel, voxel_coloring};
+use aibr_voxel::{ColoringParams, PlanarFace, View, VoxelGrid, VoxelModel, voxel_coloring};
 use image::{GrayImage, RgbImage};
+use nalgebra::Vector3;
 use proptest::prelude::*;
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
@@ -241,6 +242,7 @@ fn the_width_power_trades_score_against_width() -> TestResult {
         let plan = PlanParams {
             consistent_below: 0.0,
             width_power,
+            ..PlanParams::default()
         };
         Ok(plan_next(&pans, &scores, &limits, &plan)?
             .ok_or("no proposal")?
@@ -259,20 +261,126 @@ fn the_width_power_trades_score_against_width() -> TestResult {
     }
     let negative = PlanParams {
         consistent_below: -1.0,
-        width_power: 3.0,
+        ..PlanParams::default()
     };
     assert!(plan_next(&pans, &scores, &limits, &negative).is_err());
     Ok(())
 }
 
+#[test]
+fn edge_on_pans_put_the_camera_centre_in_the_face_plane() -> TestResult {
+    let scene = catalogue::lambertian()?;
+    let range = scene.rig.pan_range;
+    let centre_at_zero = scene.camera(Angle::ZERO)?.centre();
+    // The faces of a box 0.13 m wide about the axis, and one leaning 10 degrees.
+    let lean = 10f64.to_radians();
+    let faces = [
+        (Vector3::new(1.0, 0.0, 0.0), 0.065),
+        (Vector3::new(0.0, -1.0, 0.0), 0.065),
+        (Vector3::new(lean.cos(), 0.0, lean.sin()), 0.08),
+    ];
+    for (normal, offset_m) in faces {
+        let face = PlanarFace {
+            normal,
+            offset_m,
+            voxels: 1,
+        };
+        let pans = edge_on_pans(&face, &centre_at_zero, &range);
+        assert!(!pans.is_empty(), "{normal:?}");
+        for pan in pans {
+            let c = scene.camera(pan)?.centre();
+            assert!(
+                (normal.dot(&c.coords) - offset_m).abs() < 1e-9,
+                "{normal:?} at {pan}: {}",
+                normal.dot(&c.coords)
+            );
+        }
+    }
+    // The -y face is seen edge-on at +-acos(0.065 / 0.55) = +-83.2 degrees from pan 0 (the
+    // pan that faces it), both inside the range.
+    let face = PlanarFace {
+        normal: Vector3::new(0.0, -1.0, 0.0),
+        offset_m: 0.065,
+        voxels: 1,
+    };
+    let mut pans: Vec<f64> = edge_on_pans(&face, &centre_at_zero, &range)
+        .iter()
+        .map(|a| a.degrees())
+        .collect();
+    pans.sort_by(f64::total_cmp);
+    let want = (0.065f64 / 0.55).acos().to_degrees();
+    assert_eq!(pans.len(), 2, "{pans:?}");
+    assert!(
+        (pans[0] + want).abs() < 1e-9 && (pans[1] - want).abs() < 1e-9,
+        "{pans:?}"
+    );
+    // A plane the circle never meets.
+    let far = PlanarFace {
+        normal: Vector3::new(1.0, 0.0, 0.0),
+        offset_m: 0.6,
+        voxels: 1,
+    };
+    assert!(edge_on_pans(&far, &centre_at_zero, &range).is_empty());
+    Ok(())
+}
+
+#[test]
+fn an_aim_near_the_middle_of_the_chosen_arc_draws_the_view() -> TestResult {
+    let limits = ptu_range_in_degrees()?;
+    let pans = [0.0, 20.0, 60.0].map(Angle::from_degrees);
+    // The 20-60 arc is chosen (wider, same score); its middle is 40.
+    let scores = [pair(0, 1, 100.0), pair(1, 2, 100.0)];
+    let plan = PlanParams::default();
+    let with = |aims: &[f64]| -> Result<f64, Box<dyn std::error::Error>> {
+        let aims: Vec<Angle> = aims.iter().map(|d| Angle::from_degrees(*d)).collect();
+        let p = plan_next_aimed(&pans, &scores, &aims, &limits, &plan)?.ok_or("no proposal")?;
+        assert_eq!(p.pair, (1, 2));
+        Ok(p.pan.degrees())
+    };
+    assert!((with(&[])? - 40.0).abs() < 1e-9);
+    // Within the middle half (30 to 50): the aim, quantised to whole steps; the one nearest
+    // the middle when several are.
+    assert!((with(&[46.3])? - 46.0).abs() < 1e-9);
+    assert!((with(&[33.0, 46.0, 10.0])? - 46.0).abs() < 1e-9);
+    // Outside it, or in another arc: the middle.
+    assert!((with(&[27.0, 55.0, 10.0])? - 40.0).abs() < 1e-9);
+    // An aim with a view within AIM_DONE_DEG of it is done (a view the scores do not know
+    // of, which leaves the arcs as they were).
+    let seen = [0.0, 20.0, 60.0, 46.0 + 0.6 * AIM_DONE_DEG].map(Angle::from_degrees);
+    let aims = [Angle::from_degrees(46.0)];
+    let p = plan_next_aimed(&seen, &scores, &aims, &limits, &plan)?.ok_or("no proposal")?;
+    assert!((p.pan.degrees() - 40.0).abs() < 1e-9, "{}", p.pan);
+    // A reach of 0 never moves the view; a reach outside 0..=1 is refused.
+    let never = PlanParams {
+        aim_reach: 0.0,
+        ..plan
+    };
+    let aims = [Angle::from_degrees(46.0)];
+    let p = plan_next_aimed(&pans, &scores, &aims, &limits, &never)?.ok_or("no proposal")?;
+    assert!((p.pan.degrees() - 40.0).abs() < 1e-9);
+    for bad in [-0.1, 1.5, f64::NAN] {
+        let plan = PlanParams {
+            aim_reach: bad,
+            ..plan
+        };
+        let err = plan_next_aimed(&pans, &scores, &aims, &limits, &plan)
+            .err()
+            .ok_or("accepted a bad reach")?;
+        assert!(err.to_string().contains("aim_reach"), "{err}");
+    }
+    Ok(())
+}
+
 proptest! {
-    /// Whatever the scores, a proposal is inside the range, a whole number of steps, and at
+    /// Whatever the scores and aims, a proposal is inside the range, a whole number of steps, and at
     /// least a step from every existing view.
     #[test]
     fn proposals_respect_the_turntable(
         mut degrees in prop::collection::vec(-159.0..159.0f64, 2..20),
         step in 0.01..5.0f64,
         raw_scores in prop::collection::vec(0.0..1000.0f64, 19),
+        aims in prop::collection::vec(-200.0..200.0f64, 0..6),
+        aim_reach in 0.0..=1.0f64,
     ) {
         degrees.sort_by(f64::total_cmp);
         let range = PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0)).unwrap_or_default();
@@ -281,7 +389,9 @@ proptest! {
         let Ok(limits) = limits else { return Ok(()) };
         let pans: Vec<Angle> = degrees.iter().map(|d| Angle::from_degrees(*d)).collect();
         let scores: Vec<PairScore> = (0..pans.len() - 1).map(|i| pair(i, i + 1, raw_scores[i])).collect();
-        let planned = plan_next(&pans, &scores, &limits, &PlanParams::default());
+        let aims: Vec<Angle> = aims.iter().map(|d| Angle::from_degrees(*d)).collect();
+        let plan = PlanParams { aim_reach, ..PlanParams::default() };
+        let planned = plan_next_aimed(&pans, &scores, &aims, &limits, &plan);
         prop_assert!(planned.is_ok());
         if let Ok(Some(p)) = planned {
             prop_assert!(p.pan.radians() >= range.min().radians() && p.pan.radians() <= range.max().radians());

@@ -50,6 +50,7 @@
 pub mod carving;
 pub mod coloring;
 pub mod error;
+pub mod faces;
 pub mod foreground;
 pub mod grid;
 mod hull;
@@ -64,6 +65,7 @@ pub use coloring::{
     voxel_coloring_reference,
 };
 pub use error::{Error, Result};
+pub use faces::{FaceParams, PlanarFace, planar_faces};
 pub use grid::{VoxelGrid, VoxelModel};
 pub use kernel::{Criterion, View};
 pub use ply::{PlyOptions, write_ply};

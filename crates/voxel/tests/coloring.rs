@@ -412,3 +412,31 @@ fn ply_files_parse_back() -> TestResult {
     assert!(faces >= out.model.surface_voxels().len());
     Ok(())
 }
+
+/// The four side faces of `lambertian`'s block (0.13 m square about the axis, 0.06 m high)
+/// are found in a model voxel coloring made from 24 views: the Hough vote's directions within
+/// a degree, its planes within two voxels (the model's faces are fat by up to that much).
+#[test]
+fn the_block_faces_of_a_colored_model_are_found() -> TestResult {
+    let scene = catalogue::lambertian()?;
+    let cap = capture(&scene, 24)?;
+    let grid = VoxelGrid::with_resolution(scene.bounds(), 96)?;
+    let model = voxel_coloring(&grid, &cap.views(true), &ColoringParams::default())?.model;
+    let faces = aibr_voxel::planar_faces(&model, &aibr_voxel::FaceParams::default())?;
+    for (x, y) in [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)] {
+        let n = nalgebra::Vector3::new(x, y, 0.0);
+        let face = faces
+            .iter()
+            .find(|f| f.normal.dot(&n) > 1f64.to_radians().cos())
+            .ok_or_else(|| format!("no face facing ({x}, {y}) within a degree: {faces:?}"))?;
+        let off = face.offset_m - 0.065;
+        assert!(
+            off.abs() <= 2.0 * grid.voxel_size(),
+            "({x}, {y}): plane {:.4} m, {off:+.4} from the block's",
+            face.offset_m
+        );
+    }
+    // Nothing else: the drum and the ball are round.
+    assert_eq!(faces.len(), 4, "{faces:?}");
+    Ok(())
+}

@@ -1,0 +1,434 @@
+//! Large flat faces of a voxel model: where a view would see the object edge-on.
+//!
+//! A face of a box seen only at a slant comes out of voxel coloring a few voxels too fat: the
+//! visual hull there is a shallow wedge bounded by the silhouette rays of the views on either
+//! side of the face's plane, and the wedge's voxels see nearly the same texture from those
+//! views, so the colour test passes them (`docs/results.md`, "a face comes out fat unless a
+//! view sees it edge-on"). A view whose centre lies in the face's plane cuts the wedge away.
+//! [`planar_faces`] finds the model's large flat faces so that a planner can aim views at their
+//! planes.
+//!
+//! The method is a Hough vote over the surface voxels' normals. A voxel's normal is the
+//! direction in which the surface voxels within `r` voxels of it spread least (voxel coloring
+//! leaves a shell, the voxels it saw, so the model's solid cannot be used), turned away from
+//! the model's centre; voxels whose neighbourhood is not flat do not vote. The normals vote in
+//! a histogram of their horizontal direction, smoothed over a few degrees so that a wedge's
+//! two facets (a few degrees either side of the true face) vote for the face between them;
+//! each peak holding enough of the votes becomes a plane through the densest offset of its
+//! voxels, kept when enough voxels lie on it and they span enough of it. The facets of a
+//! visual hull from few views are flat too, and are found as faces while they are wide.
+//!
+//! # Conventions
+//! The model's grid frame (the turntable frame of `aibr-camera`, metres, Z up). A plane is the
+//! points `x` with `normal . x = offset_m`, `normal` a unit vector pointing away from the
+//! model's centre (out of the object, for a convex one).
+
+use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
+
+use crate::error::{Error, Result};
+use crate::grid::VoxelModel;
+
+/// Parameters of [`planar_faces`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaceParams {
+    /// Radius, in voxels, of the ball over which a surface voxel's normal is estimated
+    /// (default 3).
+    pub normal_radius: usize,
+    /// Only faces whose normal is within this angle of horizontal, degrees (default 20): the
+    /// faces a camera circling above the object can see edge-on.
+    pub max_tilt_deg: f64,
+    /// Width of the smoothing of the direction histogram, degrees either side (default 6).
+    pub smoothing_deg: f64,
+    /// A peak must hold at least this share of the votes (default 0.02).
+    pub min_share: f64,
+    /// And at least this many voxels must lie within two voxels of its plane (default 150).
+    pub min_voxels: usize,
+    /// And those must span at least this many voxels along the face (default 20).
+    pub min_span_voxels: f64,
+}
+
+impl Default for FaceParams {
+    fn default() -> Self {
+        FaceParams {
+            normal_radius: 3,
+            max_tilt_deg: 20.0,
+            smoothing_deg: 6.0,
+            min_share: 0.02,
+            min_voxels: 150,
+            min_span_voxels: 20.0,
+        }
+    }
+}
+
+impl FaceParams {
+    /// Rejects values outside their domains.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, value: f64, reason| Error::InvalidParameter {
+            name,
+            value,
+            reason,
+        };
+        if !(1..=16).contains(&self.normal_radius) {
+            return Err(bad(
+                "normal_radius",
+                self.normal_radius as f64,
+                "must be 1 to 16 voxels",
+            ));
+        }
+        if !(self.max_tilt_deg >= 0.0 && self.max_tilt_deg < 90.0) {
+            return Err(bad(
+                "max_tilt_deg",
+                self.max_tilt_deg,
+                "must be 0 or more and under 90 degrees",
+            ));
+        }
+        if !(self.smoothing_deg >= 0.0 && self.smoothing_deg <= 45.0) {
+            return Err(bad(
+                "smoothing_deg",
+                self.smoothing_deg,
+                "must be 0 to 45 degrees",
+            ));
+        }
+        if !(self.min_share > 0.0 && self.min_share <= 1.0) {
+            return Err(bad(
+                "min_share",
+                self.min_share,
+                "must be over 0 and at most 1",
+            ));
+        }
+        if !(self.min_span_voxels >= 0.0 && self.min_span_voxels.is_finite()) {
+            return Err(bad(
+                "min_span_voxels",
+                self.min_span_voxels,
+                "must be a finite 0 or more",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A large flat face of a model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanarFace {
+    /// Its unit normal, away from the model's centre.
+    pub normal: Vector3<f64>,
+    /// Its plane is `normal . x = offset_m` (metres).
+    pub offset_m: f64,
+    /// Surface voxels within two voxels of the plane whose normals voted for it.
+    pub voxels: usize,
+}
+
+/// The large flat faces of `model` whose normals are nearly horizontal, largest first (see the
+/// module docs). An empty list when the model has none (a ball, a head) or no surface.
+pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<PlanarFace>> {
+    params.validate()?;
+    let grid = *model.grid();
+    let size = grid.voxel_size();
+    let [nx, ny, nz] = grid.dims();
+    let r = params.normal_radius as isize;
+    // Voxel coloring leaves a shell (only the voxels it saw and kept), so a voxel's normal is
+    // that of the surface voxels around it: the least direction of their spread.
+    let surface = model.surface_voxels();
+    let mut on_surface = ndarray::Array3::from_elem(grid.shape(), false);
+    for &[i, j, k] in &surface {
+        on_surface[[k, j, i]] = true;
+    }
+    let at = |i: isize, j: isize, k: isize| -> bool {
+        i >= 0
+            && j >= 0
+            && k >= 0
+            && (i as usize) < nx
+            && (j as usize) < ny
+            && (k as usize) < nz
+            && on_surface[[k as usize, j as usize, i as usize]]
+    };
+    let centroid = {
+        let sum = surface
+            .iter()
+            .fold(Vector3::zeros(), |s, &v| s + grid.centre(v).coords);
+        sum / surface.len().max(1) as f64
+    };
+    let max_tilt = params.max_tilt_deg.to_radians().sin();
+    // Surface voxels with a nearly horizontal normal: (centre, horizontal direction, radians).
+    let mut votes: Vec<(Point3<f64>, f64)> = Vec::new();
+    for &[i, j, k] in &surface {
+        let (ci, cj, ck) = (i as isize, j as isize, k as isize);
+        let (mut count, mut sum, mut outer) = (0.0, Vector3::zeros(), Matrix3::zeros());
+        for dk in -r..=r {
+            for dj in -r..=r {
+                for di in -r..=r {
+                    if di * di + dj * dj + dk * dk <= r * r && at(ci + di, cj + dj, ck + dk) {
+                        let d = Vector3::new(di as f64, dj as f64, dk as f64);
+                        count += 1.0;
+                        sum += d;
+                        outer += d * d.transpose();
+                    }
+                }
+            }
+        }
+        if count < 6.0 {
+            continue;
+        }
+        let mean = sum / count;
+        let spread = outer / count - mean * mean.transpose();
+        let eigen = SymmetricEigen::new(spread);
+        let least = eigen.eigenvalues.imin();
+        let mut n: Vector3<f64> = eigen.eigenvectors.column(least).into_owned();
+        // A plane's neighbourhood spreads in two directions and hardly in the third.
+        let mut values = [
+            eigen.eigenvalues[0],
+            eigen.eigenvalues[1],
+            eigen.eigenvalues[2],
+        ];
+        values.sort_by(f64::total_cmp);
+        if !(values[0] <= 0.1 * values[1]) {
+            continue;
+        }
+        let centre = grid.centre([i, j, k]);
+        // Away from the model's centre.
+        if n.dot(&(centre.coords - centroid)) < 0.0 {
+            n = -n;
+        }
+        if n.z.abs() > max_tilt {
+            continue;
+        }
+        votes.push((centre, n.y.atan2(n.x)));
+    }
+    if votes.is_empty() {
+        return Ok(Vec::new());
+    }
+    // The direction histogram, one bin a degree, smoothed with a triangle of the given width.
+    const BINS: usize = 360;
+    let bin_of = |a: f64| -> usize {
+        let d = a.to_degrees().rem_euclid(360.0);
+        (d.floor() as usize).min(BINS - 1)
+    };
+    let mut histogram = [0f64; BINS];
+    for &(_, a) in &votes {
+        histogram[bin_of(a)] += 1.0;
+    }
+    let w = params.smoothing_deg.round() as isize;
+    let mut smooth = [0f64; BINS];
+    for (b, s) in smooth.iter_mut().enumerate() {
+        for d in -w..=w {
+            let weight = (w + 1 - d.abs()) as f64 / (w + 1) as f64;
+            *s += weight * histogram[(b as isize + d).rem_euclid(BINS as isize) as usize];
+        }
+    }
+    // A peak's share: the votes within the smoothing width of it, over all votes.
+    let total = votes.len() as f64;
+    let window = |b: usize| -> f64 {
+        (-w..=w)
+            .map(|d| histogram[(b as isize + d).rem_euclid(BINS as isize) as usize])
+            .sum()
+    };
+    let mut peaks: Vec<usize> = (0..BINS)
+        .filter(|&b| {
+            let (prev, next) = (smooth[(b + BINS - 1) % BINS], smooth[(b + 1) % BINS]);
+            smooth[b] > prev && smooth[b] >= next && window(b) >= params.min_share * total
+        })
+        .collect();
+    peaks.sort_by(|&a, &b| smooth[b].total_cmp(&smooth[a]));
+    let mut faces: Vec<PlanarFace> = Vec::new();
+    for peak in peaks {
+        // The face's direction: the circular mean of the votes within the window.
+        let centre = (peak as f64 + 0.5).to_radians();
+        let near = |a: f64| {
+            (a - centre + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI
+        };
+        let half = (params.smoothing_deg.max(1.0)).to_radians();
+        let members: Vec<&(Point3<f64>, f64)> = votes
+            .iter()
+            .filter(|(_, a)| near(*a).abs() <= half)
+            .collect();
+        let (s, c) = members
+            .iter()
+            .fold((0.0, 0.0), |(s, c), (_, a)| (s + a.sin(), c + a.cos()));
+        let direction = s.atan2(c);
+        let normal = Vector3::new(direction.cos(), direction.sin(), 0.0);
+        // The plane through the densest offset (bins of one voxel, a window of five).
+        let offsets: Vec<f64> = members.iter().map(|(p, _)| normal.dot(&p.coords)).collect();
+        let lo = offsets.iter().copied().fold(f64::INFINITY, f64::min);
+        let bins = ((offsets.iter().copied().fold(f64::NEG_INFINITY, f64::max) - lo) / size).floor()
+            as usize
+            + 1;
+        let mut counts = vec![0usize; bins];
+        for t in &offsets {
+            counts[(((t - lo) / size).floor() as usize).min(bins - 1)] += 1;
+        }
+        let Some((best, _)) = (0..bins)
+            .map(|b| {
+                (
+                    b,
+                    counts[b.saturating_sub(2)..(b + 3).min(bins)]
+                        .iter()
+                        .sum::<usize>(),
+                )
+            })
+            .max_by(|x, y| x.1.cmp(&y.1).then(y.0.cmp(&x.0)))
+        else {
+            continue;
+        };
+        let plane = lo + (best as f64 + 0.5) * size;
+        let on: Vec<(&Point3<f64>, f64)> = members
+            .iter()
+            .zip(&offsets)
+            .filter(|(_, t)| (*t - plane).abs() <= 2.0 * size)
+            .map(|((p, _), t)| (p, *t))
+            .collect();
+        if on.len() < params.min_voxels {
+            continue;
+        }
+        let along = Vector3::new(-normal.y, normal.x, 0.0);
+        let (a_lo, a_hi) = on
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (p, _)| {
+                let a = along.dot(&p.coords);
+                (l.min(a), h.max(a))
+            });
+        if (a_hi - a_lo) / size < params.min_span_voxels {
+            continue;
+        }
+        let offset_m = on.iter().map(|(_, t)| t).sum::<f64>() / on.len() as f64;
+        // One face per direction: a peak within the smoothing width of a kept face's
+        // direction and plane is that face again.
+        let again = faces.iter().any(|f| {
+            f.normal.dot(&normal) > half.cos() && (f.offset_m - offset_m).abs() <= 3.0 * size
+        });
+        if !again {
+            faces.push(PlanarFace {
+                normal,
+                offset_m,
+                voxels: on.len(),
+            });
+        }
+    }
+    faces.sort_by_key(|f| std::cmp::Reverse(f.voxels));
+    Ok(faces)
+}
+
+#[cfg(test)]
+mod tests {
+    use aibr_camera::Aabb;
+
+    use super::*;
+    use crate::grid::VoxelGrid;
+
+    type TestResult = std::result::Result<(), Box<dyn std::error::Error>>;
+
+    fn grid(n: usize) -> Result<VoxelGrid> {
+        VoxelGrid::with_resolution(
+            Aabb {
+                min: Point3::new(-0.1, -0.1, 0.0),
+                max: Point3::new(0.1, 0.1, 0.2),
+            },
+            n,
+        )
+    }
+
+    fn rotated_box(angle_deg: f64, half: [f64; 2], height: f64) -> impl Fn(&Point3<f64>) -> bool {
+        let (s, c) = angle_deg.to_radians().sin_cos();
+        move |p: &Point3<f64>| {
+            let (u, v) = (c * p.x + s * p.y, -s * p.x + c * p.y);
+            u.abs() < half[0] && v.abs() < half[1] && p.z > 0.01 && p.z < height
+        }
+    }
+
+    #[test]
+    fn a_turned_box_has_its_four_side_faces_found() -> TestResult {
+        let angle = 17.0f64;
+        let half = [0.06, 0.04];
+        let model = VoxelModel::from_centres(grid(96)?, rotated_box(angle, half, 0.15));
+        let faces = planar_faces(&model, &FaceParams::default())?;
+        assert_eq!(faces.len(), 4, "{faces:?}");
+        for (k, h) in [
+            (0.0, half[0]),
+            (90.0, half[1]),
+            (180.0, half[0]),
+            (270.0, half[1]),
+        ] {
+            let want = (angle + k).to_radians();
+            let n = Vector3::new(want.cos(), want.sin(), 0.0);
+            let f = faces
+                .iter()
+                .find(|f| f.normal.dot(&n) > 0.99)
+                .ok_or(format!("no face at {k} degrees: {faces:?}"))?;
+            let size = model.grid().voxel_size();
+            assert!(f.normal.dot(&n) > 0.9995, "{k}: {:?}", f.normal);
+            assert!(
+                (f.offset_m - h).abs() < 1.5 * size,
+                "{k}: {} vs {h}",
+                f.offset_m
+            );
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn a_wedge_of_two_shallow_facets_votes_for_the_face_between_them() -> TestResult {
+        // The +x face pushed out into a roof of two facets 3 degrees either side of it.
+        let wedge = |p: &Point3<f64>| {
+            let roof = 0.05 + (0.05 - p.y.abs()) * 3f64.to_radians().tan();
+            p.x > -0.05 && p.x < roof && p.y.abs() < 0.05 && p.z > 0.01 && p.z < 0.15
+        };
+        let model = VoxelModel::from_centres(grid(96)?, wedge);
+        let faces = planar_faces(&model, &FaceParams::default())?;
+        let f = faces
+            .iter()
+            .find(|f| f.normal.x > 0.9)
+            .ok_or(format!("no +x face: {faces:?}"))?;
+        assert!(
+            f.normal.y.abs() < 0.5f64.to_radians().sin(),
+            "{:?}",
+            f.normal
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn round_things_have_no_faces() -> TestResult {
+        let drum =
+            |p: &Point3<f64>| p.x * p.x + p.y * p.y < 0.06f64.powi(2) && p.z > 0.01 && p.z < 0.1;
+        let ball = |p: &Point3<f64>| (p - Point3::new(0.0, 0.0, 0.1)).norm() < 0.07;
+        for (what, model) in [
+            ("drum", VoxelModel::from_centres(grid(96)?, drum)),
+            ("ball", VoxelModel::from_centres(grid(96)?, ball)),
+            ("nothing", VoxelModel::empty(grid(32)?)),
+        ] {
+            let faces = planar_faces(&model, &FaceParams::default())?;
+            assert!(faces.is_empty(), "{what}: {faces:?}");
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn parameters_out_of_their_domain_are_refused() -> TestResult {
+        let model = VoxelModel::empty(grid(4)?);
+        for p in [
+            FaceParams {
+                normal_radius: 0,
+                ..FaceParams::default()
+            },
+            FaceParams {
+                max_tilt_deg: 90.0,
+                ..FaceParams::default()
+            },
+            FaceParams {
+                smoothing_deg: f64::NAN,
+                ..FaceParams::default()
+            },
+            FaceParams {
+                min_share: 0.0,
+                ..FaceParams::default()
+            },
+            FaceParams {
+                min_span_voxels: f64::INFINITY,
+                ..FaceParams::default()
+            },
+        ] {
+            assert!(planar_faces(&model, &p).is_err(), "{p:?}");
+        }
+        Ok(())
+    }
+}
