@@ -143,8 +143,7 @@ pub fn edge_on_pans(
     out
 }
 
-/// Splits the worst arc at its middle angle, or at an aim near it ([`plan_next_aimed`] with
-/// no aims).
+/// Splits the worst arc at its middle angle: [`plan_next_aimed`] with no aims.
 pub fn plan_next(
     pans: &[Angle],
     scores: &[PairScore],

@@ -11,6 +11,8 @@
 //!   [`voxel_coloring_reference`];
 //! - [`space_carving`] (Kutulakos and Seitz), multi-sweep, for rigs whose cameras are not all
 //!   above the object;
+//! - [`planar_faces`]: a model's large flat faces, whose planes a planner can aim views at
+//!   (a face seen only at a slant comes out a few voxels too fat);
 //! - [`foreground`] masks from a dark background, [`metrics`] against ground truth, and
 //!   [`write_ply`] for MeshLab and Blender.
 //!
