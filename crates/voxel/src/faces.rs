@@ -110,7 +110,8 @@ impl FaceParams {
 /// A large flat face of a model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlanarFace {
-    /// Its unit normal, away from the model's centre.
+    /// Its unit normal: horizontal (the mean direction of its voxels' normals in the turntable
+    /// plane, tilted or not), away from the model's centre.
     pub normal: Vector3<f64>,
     /// Its plane is `normal . x = offset_m` (metres).
     pub offset_m: f64,
@@ -119,7 +120,7 @@ pub struct PlanarFace {
 }
 
 /// The large flat faces of `model` whose normals are nearly horizontal, largest first (see the
-/// module docs). An empty list when the model has none (a ball, a head) or no surface.
+/// module docs). An empty list when the model has none (a ball, a drum) or no surface.
 pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<PlanarFace>> {
     params.validate()?;
     let grid = *model.grid();
