@@ -417,7 +417,8 @@ struct RenderArgs {
     no_refine: bool,
 }
 
-/// Pan angles from `from` to `to` (included when the steps land on it) by `step`, degrees.
+/// Angles from `from` to `to` (included when the steps land on it) by `step`, degrees: the
+/// pan angles of `render --sweep`, the turns of `eval --turns FROM:TO:STEP`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Sweep {
     from: f64,
@@ -448,42 +449,44 @@ struct Turns(Vec<f64>);
 const MAX_TURNS: usize = 360;
 
 fn parse_turns(text: &str) -> std::result::Result<Turns, String> {
+    let too_many = || format!("{text:?}: more than {MAX_TURNS} turns");
     let parts: Vec<&str> = text.split(':').collect();
     let turns = match parts.as_slice() {
         [from, to, step] => {
-            let (from, to, step) = (
-                degrees_in(text, "FROM", from)?,
-                degrees_in(text, "TO", to)?,
-                degrees_in(text, "STEP", step)?,
-            );
-            if !(step > 0.0) || to < from {
+            let range = Sweep {
+                from: degrees_in(text, "FROM", from)?,
+                to: degrees_in(text, "TO", to)?,
+                step: degrees_in(text, "STEP", step)?,
+            };
+            if !(range.step > 0.0) || range.to < range.from {
                 return Err(format!(
                     "{text:?}: STEP must be positive and TO at least FROM"
                 ));
             }
-            let count = ((to - from) / step + 1e-9).floor() + 1.0;
-            if count > MAX_TURNS as f64 {
-                return Err(format!("{text:?}: more than {MAX_TURNS} turns"));
+            // Counted before any is made: `len` saturates, so 0:1e300:1 is refused too.
+            if range.len() > MAX_TURNS {
+                return Err(too_many());
             }
-            // Each turn computed from FROM, not summed step by step, and rounded to a
-            // nanodegree, so that 0:0.3:0.1 names its folders turn0.1, turn0.2, turn0.3.
-            (0..count as usize)
-                .map(|i| ((from + i as f64 * step) * 1e9).round() / 1e9)
-                .collect()
+            // Rounded to a nanodegree, so that 0:0.3:0.1 names its folders turn0.1, turn0.2,
+            // turn0.3 (`angles` computes each from FROM, not by summing steps).
+            range.angles().map(|t| (t * 1e9).round() / 1e9).collect()
         }
-        [_] => text
-            .split(',')
-            .map(|v| degrees_in(text, "turn", v))
-            .collect::<std::result::Result<Vec<_>, _>>()?,
+        [_] => {
+            let list = text
+                .split(',')
+                .map(|v| degrees_in(text, "turn", v))
+                .collect::<std::result::Result<Vec<_>, _>>()?;
+            if list.len() > MAX_TURNS {
+                return Err(too_many());
+            }
+            list
+        }
         _ => {
             return Err(format!(
                 "{text:?}: expected a list of degrees such as 0,10,20, or FROM:TO:STEP such as 0:27.5:2.5"
             ));
         }
     };
-    if turns.len() > MAX_TURNS {
-        return Err(format!("{text:?}: more than {MAX_TURNS} turns"));
-    }
     Ok(Turns(turns))
 }
 

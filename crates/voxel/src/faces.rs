@@ -125,7 +125,6 @@ pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<Plana
     params.validate()?;
     let grid = *model.grid();
     let size = grid.voxel_size();
-    let [nx, ny, nz] = grid.dims();
     let r = params.normal_radius as isize;
     // Voxel coloring leaves a shell (only the voxels it saw and kept), so a voxel's normal is
     // that of the surface voxels around it: the least direction of their spread.
@@ -135,13 +134,10 @@ pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<Plana
         on_surface[[k, j, i]] = true;
     }
     let at = |i: isize, j: isize, k: isize| -> bool {
-        i >= 0
-            && j >= 0
-            && k >= 0
-            && (i as usize) < nx
-            && (j as usize) < ny
-            && (k as usize) < nz
-            && on_surface[[k as usize, j as usize, i as usize]]
+        match (usize::try_from(i), usize::try_from(j), usize::try_from(k)) {
+            (Ok(i), Ok(j), Ok(k)) => on_surface.get([k, j, i]).copied().unwrap_or(false),
+            _ => false,
+        }
     };
     let centroid = {
         let sum = surface
@@ -230,6 +226,8 @@ pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<Plana
         })
         .collect();
     peaks.sort_by(|&a, &b| smooth[b].total_cmp(&smooth[a]));
+    // The window of votes that make a face, either side of its peak.
+    let half = (params.smoothing_deg.max(1.0)).to_radians();
     let mut faces: Vec<PlanarFace> = Vec::new();
     for peak in peaks {
         // The face's direction: the circular mean of the votes within the window.
@@ -238,7 +236,6 @@ pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<Plana
             (a - centre + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
                 - std::f64::consts::PI
         };
-        let half = (params.smoothing_deg.max(1.0)).to_radians();
         let members: Vec<&(Point3<f64>, f64)> = votes
             .iter()
             .filter(|(_, a)| near(*a).abs() <= half)
