@@ -163,11 +163,27 @@ pub struct EvalParams {
     pub checkpoints: Vec<usize>,
     /// Voxels along the longest edge of the models the novel views are rendered from.
     pub grid: usize,
-    /// Spacing of the evaluated pan angles (1 degree by default); angles within half a step
+    /// Spacing of the evaluated pan angles (default 1 degree); angles within half a step
     /// (at most half a degree) of a captured view are skipped (they were captured).
     pub step: Angle,
     /// The geometry the novel views are rendered from (default: the reconstruction).
     pub model: EvalModel,
+}
+
+impl Default for EvalParams {
+    /// The paper's experiment as `aibr eval` runs it by default: 12 uniform views, a budget
+    /// of 48, measured at 12, 24, 36 and 48 views on a 1-degree grid, rendered from 128^3
+    /// reconstructions.
+    fn default() -> Self {
+        let capture = CaptureParams::default();
+        EvalParams {
+            checkpoints: vec![capture.initial, 24, 36, capture.max],
+            capture,
+            grid: 128,
+            step: Angle::from_degrees(1.0),
+            model: EvalModel::Reconstructed,
+        }
+    }
 }
 
 /// The measurement of one set of views.
@@ -326,6 +342,9 @@ pub fn evaluate_rig<R: EvalRig>(
     work_dir: &Path,
     progress: &mut dyn FnMut(String),
 ) -> Result<Vec<StrategyEval>> {
+    // The counts first: a bad initial count or budget is named as such, not as a checkpoint
+    // out of range.
+    params.capture.validate()?;
     if params
         .checkpoints
         .iter()
@@ -767,6 +786,36 @@ mod tests {
             plain.mean_psnr
         );
         Ok(())
+    }
+
+    #[test]
+    fn bad_counts_are_named_before_the_checkpoints() {
+        let work = std::env::temp_dir().join(format!("aibr-eval-counts-{}", std::process::id()));
+        let run = |initial: usize, max: usize| {
+            let params = EvalParams {
+                capture: CaptureParams {
+                    initial,
+                    max,
+                    ..CaptureParams::default()
+                },
+                checkpoints: vec![initial, max],
+                ..EvalParams::default()
+            };
+            match evaluate(
+                "lambertian",
+                &[Strategy::Uniform],
+                &params,
+                &work,
+                &mut |_| {},
+            ) {
+                Err(Error::InvalidParameter { name, .. }) => name,
+                other => panic!("{initial}..{max}: {other:?}"),
+            }
+        };
+        assert_eq!(run(1, 48), "initial");
+        assert_eq!(run(12, 8), "max");
+        // Nothing was made for a refused evaluation.
+        assert!(!work.exists());
     }
 
     #[test]

@@ -568,9 +568,28 @@ enum SceneCommand {
 
 fn main() {
     if let Err(e) = run(Cli::parse()) {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", report(&e));
         std::process::exit(1);
     }
+}
+
+/// The error and its causes on one line, `: ` between them. The library's errors name their
+/// cause in their own message (so that it shows wherever they are printed) and also give it
+/// as their source, so a cause the message before already ends with is left out rather than
+/// said twice.
+fn report(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.ends_with(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -1670,6 +1689,25 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_cause_is_said_once() {
+        let missing = std::path::Path::new("/nonexistent/session.json");
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = anyhow::Error::new(aibr::Error::Io {
+            action: "reading",
+            path: missing.into(),
+            source: io,
+        })
+        .context("--rig \"replay:/nonexistent\"");
+        assert_eq!(
+            report(&e),
+            "--rig \"replay:/nonexistent\": reading /nonexistent/session.json: no such file"
+        );
+        // A cause the message does not already give is kept.
+        let e = anyhow::anyhow!("the port is busy").context("opening /dev/ttyUSB0");
+        assert_eq!(report(&e), "opening /dev/ttyUSB0: the port is busy");
     }
 
     #[test]

@@ -771,10 +771,40 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     );
     assert_eq!(std::fs::read(&active)?, before);
     let out = aibr()
-        .args(["eval", "--max", "6", "--checkpoints", "7", "--work"])
+        .args([
+            "eval",
+            "--initial",
+            "3",
+            "--max",
+            "6",
+            "--checkpoints",
+            "7",
+            "--work",
+        ])
         .arg(&work)
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("checkpoints"));
+    // A bad count is named as itself, not as a checkpoint out of range.
+    let out = aibr()
+        .args(["eval", "--initial", "1", "--work"])
+        .arg(&work)
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("invalid initial: at least 3 views"), "{err}");
+    // A missing replay folder: its path and the reason, each said once.
+    let missing = work.join("no-such-ring");
+    let out = aibr()
+        .args(["eval", "--rig"])
+        .arg(format!("replay:{}", missing.display()))
+        .arg("--work")
+        .arg(&work)
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains(&format!("{}", missing.display())),
+        "{err}"
+    );
+    assert_eq!(err.matches("(os error 2)").count(), 1, "{err}");
     let _ = std::fs::remove_dir_all(&work);
     Ok(())
 }
