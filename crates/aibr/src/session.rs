@@ -234,7 +234,8 @@ fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file beside it, fsync, rename, fsync of
-/// the folder. The old file (if any) stays intact until the rename.
+/// the folder. The old file (if any) stays intact until the rename, and a write that fails
+/// (a full disk, say) removes its temporary file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let name = path
@@ -243,10 +244,17 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         .unwrap_or_default();
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     let mut f = std::fs::File::create(&tmp).map_err(io("creating", &tmp))?;
-    f.write_all(bytes).map_err(io("writing", &tmp))?;
-    f.sync_all().map_err(io("syncing", &tmp))?;
+    let written = f
+        .write_all(bytes)
+        .map_err(io("writing", &tmp))
+        .and_then(|()| f.sync_all().map_err(io("syncing", &tmp)));
     drop(f);
-    std::fs::rename(&tmp, path).map_err(io("renaming into place", path))?;
+    let placed =
+        written.and_then(|()| std::fs::rename(&tmp, path).map_err(io("renaming into place", path)));
+    if placed.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    placed?;
     if let Ok(d) = std::fs::File::open(dir) {
         // Make the rename itself durable; not every file system supports it.
         let _ = d.sync_all();
@@ -525,7 +533,11 @@ impl Session {
             mask_crc32,
             captured_unix_ms,
         });
-        self.save()
+        // Unrecorded, the view is not in the session: the next capture of this index
+        // replaces its files.
+        self.save().inspect_err(|_| {
+            self.file.views.pop();
+        })
     }
 
     /// Loads every view (checksums checked again, sizes against the calibration).
@@ -632,6 +644,98 @@ mod tests {
                 .collect(),
             camera_settings: None,
         }
+    }
+
+    /// A session in a fresh temporary folder, with a plausible camera and no views.
+    fn fresh(name: &str) -> Result<(PathBuf, Session)> {
+        let dir = std::env::temp_dir().join(format!("aibr-session-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut f = file([500.0, 500.0, 320.0, 240.0, 0.0, 0.0], &[]);
+        f.calibration.size = [8, 6];
+        let session = Session::create(&dir, f)?;
+        Ok((dir, session))
+    }
+
+    fn grey(level: u8) -> RgbImage {
+        RgbImage::from_pixel(8, 6, image::Rgb([level; 3]))
+    }
+
+    /// Files whose name starts with `.` (temporary files) in `dir`.
+    fn hidden(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .map(|d| {
+                d.filter_map(|e| e.ok())
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .filter(|n| n.starts_with('.'))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Fault injection: a view's image cannot be put in place (a folder stands at its path,
+    /// which the rename cannot replace, whoever runs the test). The error names the file, the
+    /// recorded views are untouched, no temporary file is left, and once the fault is gone the
+    /// same index is captured.
+    #[test]
+    fn a_view_that_cannot_be_written_loses_nothing() -> Result<()> {
+        let (dir, mut session) = fresh("image-fault")?;
+        session.add_view(Angle::ZERO, 0, &grey(10), None)?;
+        let before = std::fs::read(dir.join("session.json")).map_err(io("reading", &dir))?;
+        let blocker = dir.join("views/0001.png");
+        std::fs::create_dir_all(blocker.join("x")).map_err(io("creating", &blocker))?;
+        match session.add_view(Angle::from_degrees(10.0), 1, &grey(20), None) {
+            Err(Error::Io { path, .. }) => assert_eq!(path, blocker),
+            other => panic!(
+                "expected an i/o error naming {}: {other:?}",
+                blocker.display()
+            ),
+        }
+        assert_eq!(session.file().views.len(), 1);
+        assert_eq!(
+            std::fs::read(dir.join("session.json")).map_err(io("reading", &dir))?,
+            before
+        );
+        assert_eq!(hidden(&dir.join("views")), Vec::<String>::new());
+        std::fs::remove_dir_all(&blocker).map_err(io("removing", &blocker))?;
+        session.add_view(Angle::from_degrees(10.0), 1, &grey(20), None)?;
+        let reopened = Session::open(&dir)?;
+        assert_eq!(reopened.file().views.len(), 2);
+        assert_eq!(reopened.load_views()?[1].image, grey(20));
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(())
+    }
+
+    /// Fault injection: `session.json` cannot be written (a folder stands where its temporary
+    /// file goes) after a view's image was. The view is then not in the session, in memory or
+    /// on disk, and the next attempt records it under the same index.
+    #[test]
+    fn a_view_whose_record_cannot_be_saved_is_not_in_the_session() -> Result<()> {
+        let (dir, mut session) = fresh("record-fault")?;
+        session.add_view(Angle::ZERO, 0, &grey(10), None)?;
+        let before = std::fs::read(dir.join("session.json")).map_err(io("reading", &dir))?;
+        let blocker = dir.join(format!(".session.json.tmp-{}", std::process::id()));
+        std::fs::create_dir_all(&blocker).map_err(io("creating", &blocker))?;
+        match session.add_view(Angle::from_degrees(10.0), 1, &grey(20), None) {
+            Err(Error::Io { path, .. }) => assert_eq!(path, blocker),
+            other => panic!(
+                "expected an i/o error naming {}: {other:?}",
+                blocker.display()
+            ),
+        }
+        assert_eq!(session.file().views.len(), 1);
+        assert_eq!(
+            std::fs::read(dir.join("session.json")).map_err(io("reading", &dir))?,
+            before
+        );
+        assert_eq!(Session::open(&dir)?.file().views.len(), 1);
+        std::fs::remove_dir_all(&blocker).map_err(io("removing", &blocker))?;
+        session.add_view(Angle::from_degrees(10.0), 1, &grey(30), None)?;
+        let reopened = Session::open(&dir)?;
+        let views = reopened.load_views()?;
+        assert_eq!(views.len(), 2);
+        assert_eq!((views[1].record.index, &views[1].image), (1, &grey(30)));
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(())
     }
 
     proptest! {
