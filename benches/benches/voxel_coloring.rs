@@ -1,6 +1,7 @@
 //! Voxel coloring benches (group `voxel_coloring`): the `lambertian` scene, 48 views of
 //! 640x480 spread over the pan range, ground-truth masks; entries `128` and `256` (voxels
-//! along the longest edge), and the scalar reference at 128 as the naive baseline.
+//! along the longest edge), `128_sample_inset_0.5` (the option for dense views), and the
+//! scalar reference at 128 as the naive baseline.
 //!
 //! `cargo bench -p aibr-benches --bench voxel_coloring`
 
@@ -44,6 +45,15 @@ fn bench(c: &mut Criterion) {
     }
     if let Ok(grid) = VoxelGrid::with_resolution(scene.bounds(), 128) {
         g.throughput(Throughput::Elements(grid.len() as u64));
+        // The option for dense views: sampled at the pixels whose centres lie inside each
+        // voxel's projected square (`ColoringParams::sample_inset`).
+        let inset = ColoringParams {
+            sample_inset: 0.5,
+            ..params
+        };
+        g.bench_function("128_sample_inset_0.5", |b| {
+            b.iter(|| voxel_coloring(&grid, &views, &inset))
+        });
         g.bench_function("reference_128", |b| {
             b.iter(|| voxel_coloring_reference(&grid, &views, &params))
         });

@@ -4,7 +4,8 @@
 //! (defaults: 128, 48, every catalogue scene). Views are spread uniformly over the pan range;
 //! the ground-truth masks are used as silhouettes. Environment variables change the
 //! defaults: `THRESH` and `WINDOW` (the angular criterion), `CTHRESH` (the classic one),
-//! `MINV` (`min_views`) and `BEHIND_HULL` (a cosine, or `off` to ask every view); `PANS`, a
+//! `MINV` (`min_views`), `INSET` (`sample_inset`, pixels) and `BEHIND_HULL` (a cosine, or
+//! `off` to ask every view); `PANS`, a
 //! comma-separated list of pan angles in degrees, replaces the uniform views (for instance
 //! the `pans_deg` of an `aibr eval --json` checkpoint; `VIEWS` is then ignored).
 
@@ -60,6 +61,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             if let Some(m) = env("MINV") {
                 params.min_views = m as usize;
+            }
+            if let Some(inset) = env("INSET") {
+                params.sample_inset = inset as f32;
             }
             let start = std::time::Instant::now();
             let out = voxel_coloring(&grid, &views, &params)?;

@@ -33,6 +33,20 @@ pub struct ColoringParams {
     /// already carved, the object's far side, which would make a true voxel look
     /// inconsistent. `None` asks every view, as Seitz and Dyer do. See `docs/voxel.md`.
     pub behind_hull: Option<f64>,
+    /// Which pixels of a voxel's footprint in a view it is judged by, in pixels inside the
+    /// footprint on each side (default 0: all of them). A kept voxel claims every pixel its
+    /// projected square touches (its footprint), so that no seam is left open between
+    /// neighbours; with an inset it is sampled, and sees a view, only at the pixels whose
+    /// centres lie within the square grown by `1/2 - sample_inset` pixels (and at least at
+    /// the pixel of its centre): 0.5 takes the pixels whose centres lie inside the projected
+    /// square, 1 those wholly inside it. A voxel hidden but for a rim of pixels it barely
+    /// touches is then not judged by them. With dense views that is faster and as good (48
+    /// views at 128^3: 12% less time, the same geometry on `lambertian`, `head` 0.9 points
+    /// less complete, `mirror` and `chair` better); with sparse views the rims' samples are
+    /// what reject voxels floating off the surface, and the models come out fatter
+    /// (`lambertian` with 12 views: 2.21 voxels / 87.3% at 0.5 against 1.71 / 92.5%).
+    /// See `docs/voxel.md`, "Sampled pixels".
+    pub sample_inset: f32,
 }
 
 impl Default for ColoringParams {
@@ -42,22 +56,33 @@ impl Default for ColoringParams {
             min_views: 3,
             visible_only: true,
             behind_hull: Some(-0.3),
+            sample_inset: 0.0,
         }
     }
 }
 
 impl ColoringParams {
     /// Checks the parameters the kernels would refuse: a [`ColoringParams::behind_hull`]
-    /// outside `[-1, 1]` (or NaN) is [`Error::InvalidParameter`].
+    /// outside `[-1, 1]` (or NaN), or a [`ColoringParams::sample_inset`] outside `[0, 8]`
+    /// pixels (or NaN), is [`Error::InvalidParameter`].
     pub fn validate(&self) -> Result<()> {
-        match self.behind_hull {
-            Some(cosine) if !(-1.0..=1.0).contains(&cosine) => Err(Error::InvalidParameter {
-                name: "behind_hull",
-                value: cosine,
-                reason: "a cosine must lie in [-1, 1]",
-            }),
-            _ => Ok(()),
+        if let Some(cosine) = self.behind_hull {
+            if !(-1.0..=1.0).contains(&cosine) {
+                return Err(Error::InvalidParameter {
+                    name: "behind_hull",
+                    value: cosine,
+                    reason: "a cosine must lie in [-1, 1]",
+                });
+            }
         }
+        if !(0.0..=8.0).contains(&self.sample_inset) {
+            return Err(Error::InvalidParameter {
+                name: "sample_inset",
+                value: f64::from(self.sample_inset),
+                reason: "pixels inside the footprint must lie in [0, 8]",
+            });
+        }
+        Ok(())
     }
 }
 
@@ -424,6 +449,8 @@ impl BlockScratch {
             footprints: BlockFootprints {
                 projected: vec![false; n],
                 footprints: vec![Footprint::EMPTY; n * cells],
+                sampled_projected: vec![false; n],
+                sampled: vec![Footprint::EMPTY; n * cells],
             },
             alive: vec![false; cells],
             samples: vec![
@@ -445,15 +472,22 @@ struct BlockFootprints {
     /// Per view: are its footprints of the current block in `footprints`?
     projected: Vec<bool>,
     /// Per view, per voxel of the block (row-major, `BLOCK * BLOCK` a view): footprints,
-    /// empty where the voxel is behind the camera or off the image.
+    /// empty where the voxel is behind the camera or off the image, for the silhouettes.
+    /// (A kept voxel's claims are projected when it is kept: few voxels are.)
     footprints: Vec<Footprint>,
+    /// The same for the sampled footprints, inset by [`ColoringParams::sample_inset`]: the
+    /// pixels a voxel is judged by.
+    sampled_projected: Vec<bool>,
+    sampled: Vec<Footprint>,
 }
 
 impl BlockFootprints {
-    /// The footprints in view `v` of the voxels `[i0..i1) x [j0..j1)` of layer `k`, computed
-    /// on first use within the block for the rows that hold a voxel still `alive` (flags
-    /// row-major, as the footprints are). The other rows keep stale values: ask only for
-    /// voxels alive at the first use (they are alive then).
+    /// The footprints in view `v` of the voxels `[i0..i1) x [j0..j1)` of layer `k` (inset
+    /// by `inset` pixels when it is `Some`), computed on first use within the block for the
+    /// rows that hold a voxel still `alive` (flags row-major, as the footprints are). The
+    /// other rows keep stale values: ask only for voxels alive at the first use (they are
+    /// alive then).
+    #[allow(clippy::too_many_arguments)]
     fn of(
         &mut self,
         p: &Projector,
@@ -462,16 +496,25 @@ impl BlockFootprints {
         (j0, j1): (usize, usize),
         layer: &Layer<'_>,
         alive: &[bool],
+        inset: Option<f32>,
     ) -> &[Footprint] {
         let cells = BLOCK * BLOCK;
-        let out = &mut self.footprints[v * cells..(v + 1) * cells];
-        if !self.projected[v] {
-            self.projected[v] = true;
+        let (projected, all) = match inset {
+            None => (&mut self.projected[v], &mut self.footprints),
+            Some(_) => (&mut self.sampled_projected[v], &mut self.sampled),
+        };
+        let out = &mut all[v * cells..(v + 1) * cells];
+        if !*projected {
+            *projected = true;
             let width = i1 - i0;
             for j in j0..j1 {
                 let row = (j - j0) * width..(j - j0 + 1) * width;
                 if alive[row.clone()].iter().any(|&a| a) {
-                    p.footprints_along_row(layer.base(v, j), i0, &mut out[row]);
+                    let base = layer.base(v, j);
+                    match inset {
+                        None => p.footprints_along_row(base, i0, &mut out[row]),
+                        Some(inset) => p.inset_footprints_along_row(base, i0, inset, &mut out[row]),
+                    }
                 }
             }
         }
@@ -572,6 +615,7 @@ fn decide_block(
         return out;
     }
     scratch.footprints.projected.fill(false);
+    scratch.footprints.sampled_projected.fill(false);
     let mut alive = match inside {
         Some(inside) => inside,
         None => {
@@ -581,10 +625,15 @@ fn decide_block(
     };
     let silhouette = std::mem::take(&mut scratch.silhouette);
     for &v in &silhouette {
-        let fps =
-            scratch
-                .footprints
-                .of(&projectors[v], v, (i0, i1), (j0, j1), layer, &scratch.alive);
+        let fps = scratch.footprints.of(
+            &projectors[v],
+            v,
+            (i0, i1),
+            (j0, j1),
+            layer,
+            &scratch.alive,
+            None,
+        );
         for (x, fp) in fps[..size].iter().enumerate() {
             if scratch.alive[x] && bits[v].rejects(fp) {
                 scratch.alive[x] = false;
@@ -609,11 +658,16 @@ fn decide_block(
         if alive == 0 {
             break;
         }
-        let fps =
-            scratch
-                .footprints
-                .of(&projectors[v], v, (i0, i1), (j0, j1), layer, &scratch.alive);
-        for (x, fp) in fps[..size].iter().enumerate() {
+        let sampled = scratch.footprints.of(
+            &projectors[v],
+            v,
+            (i0, i1),
+            (j0, j1),
+            layer,
+            &scratch.alive,
+            Some(params.sample_inset),
+        );
+        for (x, fp) in sampled[..size].iter().enumerate() {
             if !scratch.alive[x] {
                 continue;
             }
@@ -665,9 +719,9 @@ fn decide_block(
             &mut azimuths[x * n..(x + 1) * n],
         ) {
             out.kept.push(([i, j, layer.k], c));
-            // Every active view was asked about this voxel, so its footprints are known.
+            // It claims its whole footprint in every view that could still see the block.
             for &v in &scratch.active {
-                let fp = scratch.footprints.footprints[v * BLOCK * BLOCK + x];
+                let (fp, _) = projectors[v].footprint_at(layer.base(v, j), i as f32);
                 if !fp.is_empty() {
                     out.claims.push((v as u32, fp));
                 }
@@ -710,6 +764,10 @@ pub fn voxel_coloring_reference(
                     let p = &projectors[v];
                     p.footprint(p.along_row(&p.row_base(grid, j, k), i))
                 };
+                let sampled = |v: usize| {
+                    let p = &projectors[v];
+                    p.inset(p.along_row(&p.row_base(grid, j, k), i), params.sample_inset)
+                };
                 let background =
                     (0..n).any(|v| project(v).is_some_and(|fp| pixels[v].all_background(&fp)));
                 if background {
@@ -727,7 +785,7 @@ pub fn voxel_coloring_reference(
                             continue;
                         }
                     }
-                    if let Some(fp) = project(v) {
+                    if let Some(fp) = sampled(v) {
                         let (sum, count) = pixels[v].gather(&fp, &claimed[v]);
                         if count > 0 {
                             samples.push(Sample::new(v, sum, count));

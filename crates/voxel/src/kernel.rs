@@ -243,22 +243,51 @@ impl Projector {
         }
     }
 
-    /// The footprint of voxel `i` (given as `i as f32`) of a row with base `base` and the
-    /// depth (homogeneous w) of its centre: [`Projector::footprint`] of
-    /// [`Projector::along_row`], with [`Footprint::EMPTY`] for `None`, computed without
-    /// branches so that loops over voxels vectorise.
-    #[inline]
-    pub(crate) fn footprint_at(&self, base: &[f32; 3], i: f32) -> (Footprint, f32) {
-        let [x, y, z] = [0, 1, 2].map(|a| base[a] + self.inc[a] * i);
-        (self.footprint_of(x, y, z), z)
+    /// The sampled footprints of voxels `i0, i0 + 1, ...` of a row with base `base`, one per
+    /// entry of `out`: [`Projector::inset`] by `inset` pixels of [`Projector::along_row`]
+    /// ([`Footprint::EMPTY`] for `None`), without branches, as
+    /// [`Projector::footprints_along_row`] computes the footprints.
+    pub(crate) fn inset_footprints_along_row(
+        &self,
+        base: &[f32; 3],
+        i0: usize,
+        inset: f32,
+        out: &mut [Footprint],
+    ) {
+        let first = i0 as f32;
+        for (l, o) in out.iter_mut().enumerate() {
+            let [x, y, z] = [0, 1, 2].map(|a| base[a] + self.inc[a] * (first + l as f32));
+            *o = self.inset_footprint_of(x, y, z, inset);
+        }
     }
 
-    /// The footprint of a voxel whose centre projects to the homogeneous point `(x, y, z)`:
-    /// [`Projector::footprint`] with [`Footprint::EMPTY`] for `None`, without branches.
+    /// The pixels a voxel whose centre projects to `h` is sampled at, `inset` pixels inside
+    /// its [`Projector::footprint`] on each side: those whose centres lie within the
+    /// projected square of half-edge `r - inset` around the centre's projection (the
+    /// footprint's is `r + 1/2` by its rounding), and at least the pixel of the centre. Inset
+    /// 0 is the footprint itself, 1/2 the pixels whose centres lie inside the voxel's
+    /// projected square, 1 the pixels wholly inside it. `None` when the centre is behind the
+    /// camera or the sampled pixels are off the image.
     #[inline]
-    pub(crate) fn footprint_of(&self, x: f32, y: f32, z: f32) -> Footprint {
+    pub(crate) fn inset(&self, h: [f32; 3], inset: f32) -> Option<Footprint> {
+        let fp = self.inset_footprint_of(h[0], h[1], h[2], inset);
+        (!fp.is_empty()).then_some(fp)
+    }
+
+    /// [`Projector::inset`] with [`Footprint::EMPTY`] for `None`, without branches.
+    #[inline]
+    fn inset_footprint_of(&self, x: f32, y: f32, z: f32, inset: f32) -> Footprint {
         let inv = 1.0 / z;
-        let (u, v, r) = (x * inv, y * inv, self.half * inv);
+        // Half a pixel less than the footprint's reach, less the inset, never below the
+        // centre's own pixel; `max` also keeps a NaN radius (z = 0) from spreading.
+        let r = (self.half * inv - inset).max(0.0);
+        self.rect(x * inv, y * inv, r, z)
+    }
+
+    /// The pixels whose centres lie within `r + 1/2` of `(u, v)` in both directions,
+    /// clamped to the image, or [`Footprint::EMPTY`] (also for a centre behind the camera).
+    #[inline]
+    fn rect(&self, u: f32, v: f32, r: f32, z: f32) -> Footprint {
         // Clamped to the image, a footprint wholly off it comes out empty, as `clip` would
         // have it (`u0 <= u1` before clamping).
         let (u0, u1) = (round(u - r).max(0), round(u + r).min(self.width - 1));
@@ -274,6 +303,24 @@ impl Projector {
                 v1: v1 as u32,
             }
         }
+    }
+
+    /// The footprint of voxel `i` (given as `i as f32`) of a row with base `base` and the
+    /// depth (homogeneous w) of its centre: [`Projector::footprint`] of
+    /// [`Projector::along_row`], with [`Footprint::EMPTY`] for `None`, computed without
+    /// branches so that loops over voxels vectorise.
+    #[inline]
+    pub(crate) fn footprint_at(&self, base: &[f32; 3], i: f32) -> (Footprint, f32) {
+        let [x, y, z] = [0, 1, 2].map(|a| base[a] + self.inc[a] * i);
+        (self.footprint_of(x, y, z), z)
+    }
+
+    /// The footprint of a voxel whose centre projects to the homogeneous point `(x, y, z)`:
+    /// [`Projector::footprint`] with [`Footprint::EMPTY`] for `None`, without branches.
+    #[inline]
+    pub(crate) fn footprint_of(&self, x: f32, y: f32, z: f32) -> Footprint {
+        let inv = 1.0 / z;
+        self.rect(x * inv, y * inv, self.half * inv, z)
     }
 
     #[inline]
@@ -1034,6 +1081,58 @@ mod tests {
                 }
             }
             proptest::prop_assert!(empty + seen == (nx - 3) * ny * nz);
+        }
+
+        /// The sampled footprints: the row-at-a-time ones equal the one-voxel ones, inset 0
+        /// is the footprint itself, and any inset lies inside the footprint and holds the
+        /// pixel of the voxel's centre whenever that pixel is on the image.
+        #[test]
+        fn sampled_footprints_lie_inside_and_hold_the_centre(
+            radius in 0.05f64..3.0,
+            height in -1.0f64..3.0,
+            target in -0.5f64..1.5,
+            pan in 0.0f64..360.0,
+            focal in 20.0f64..2000.0,
+            inset in 0.0f32..8.0,
+        ) {
+            let (grid, p) = ring_projector(radius, height, target, pan, focal)?;
+            let [nx, ny, nz] = grid.dims();
+            let mut claimed = vec![Footprint::EMPTY; nx - 3];
+            let mut sampled = vec![Footprint::EMPTY; nx - 3];
+            for k in 0..nz {
+                for j in 0..ny {
+                    let base = p.row_base(&grid, j, k);
+                    p.footprints_along_row(&base, 3, &mut claimed);
+                    p.inset_footprints_along_row(&base, 3, inset, &mut sampled);
+                    for ((i, c), s) in (3..nx).zip(&claimed).zip(&sampled) {
+                        let h = p.along_row(&base, i);
+                        let voxel = [i, j, k];
+                        let one = p.footprint(h).unwrap_or(Footprint::EMPTY);
+                        proptest::prop_assert_eq!(*c, one, "voxel {:?}", voxel);
+                        let inner = p.inset(h, inset).unwrap_or(Footprint::EMPTY);
+                        proptest::prop_assert_eq!(*s, inner, "voxel {:?}", voxel);
+                        proptest::prop_assert_eq!(
+                            p.inset(h, 0.0).unwrap_or(Footprint::EMPTY), one
+                        );
+                        if s.is_empty() {
+                            // Empty only where the centre is behind the camera or its pixel
+                            // off the image.
+                            let (u, v) = (round(h[0] / h[2]), round(h[1] / h[2]));
+                            proptest::prop_assert!(
+                                !(h[2] > 0.0)
+                                    || !(0..p.width).contains(&u)
+                                    || !(0..p.height).contains(&v),
+                                "voxel {:?}", voxel
+                            );
+                            continue;
+                        }
+                        proptest::prop_assert!(
+                            c.u0 <= s.u0 && s.u1 <= c.u1 && c.v0 <= s.v0 && s.v1 <= c.v1,
+                            "voxel {:?}: {:?} outside {:?}", voxel, s, c
+                        );
+                    }
+                }
+            }
         }
 
         /// A block's bound holds the footprint of every voxel of the block, in every layer,

@@ -108,6 +108,38 @@ fn fast_path_equals_the_reference_voxel_for_voxel() -> TestResult {
     Ok(())
 }
 
+/// The sampled pixels inset into the footprints (`ColoringParams::sample_inset`): the fast
+/// path equals the reference at any inset, and the inset changes what is judged.
+#[test]
+fn fast_path_equals_the_reference_at_any_sample_inset() -> TestResult {
+    let scene = catalogue::head()?;
+    let cap = capture(&scene, 12)?;
+    let grid = VoxelGrid::with_resolution(scene.bounds(), 40)?;
+    let mut tested = Vec::new();
+    for sample_inset in [0.0, 0.5, 1.0, 2.5, 8.0] {
+        let params = ColoringParams {
+            sample_inset,
+            ..ColoringParams::default()
+        };
+        fast_equals_reference(
+            &grid,
+            &cap.views(true),
+            &params,
+            &format!("inset {sample_inset}"),
+        )?;
+        tested.push(
+            voxel_coloring(&grid, &cap.views(true), &params)?
+                .stats
+                .tested,
+        );
+    }
+    // A deeper inset leaves fewer voxels seen by enough views to be judged: those whose
+    // open pixels lie only at the rim of their footprints.
+    assert!(tested.windows(2).all(|w| w[1] <= w[0]), "{tested:?}");
+    assert!(tested[0] > tested[1], "{tested:?}");
+    Ok(())
+}
+
 /// A camera zoomed in so far that the object leaves every image: the blocks and bricks whose
 /// bounds the image's edge cuts hold voxels a view does not see at all, which that view must
 /// neither reject nor judge.
@@ -296,6 +328,24 @@ fn errors_name_the_view() -> TestResult {
                 other.map(|o| o.stats)
             ),
         }
+    }
+
+    // An inset that is no number of pixels inside the footprint.
+    for sample_inset in [-0.5, 8.5, f32::NAN, f32::INFINITY] {
+        let params = ColoringParams {
+            sample_inset,
+            ..ColoringParams::default()
+        };
+        assert!(
+            matches!(
+                voxel_coloring(&grid, &cap.views(true), &params),
+                Err(Error::InvalidParameter {
+                    name: "sample_inset",
+                    ..
+                })
+            ),
+            "{sample_inset}"
+        );
     }
 
     // Too few views.
