@@ -262,12 +262,13 @@ impl Projector {
     }
 
     /// The pixels a voxel whose centre projects to `h` is sampled at, `inset` pixels inside
-    /// its [`Projector::footprint`] on each side: those whose centres lie within the
-    /// projected square of half-edge `r - inset` around the centre's projection (the
-    /// footprint's is `r + 1/2` by its rounding), and at least the pixel of the centre. Inset
-    /// 0 is the footprint itself, 1/2 the pixels whose centres lie inside the voxel's
-    /// projected square, 1 the pixels wholly inside it. `None` when the centre is behind the
-    /// camera or the sampled pixels are off the image.
+    /// its [`Projector::footprint`] on each side: with `r` half the voxel's projected edge,
+    /// those whose centres lie within `r + 1/2 - inset` of the centre's projection in both
+    /// directions (the footprint's reach is `r + 1/2`: every pixel the projected square
+    /// touches), and at least the pixel of the centre. Inset 0 is the footprint itself, 1/2
+    /// the pixels whose centres lie inside the projected square, 1 the pixels wholly inside
+    /// it. `None` when the centre is behind the camera or its sampled pixels are off the
+    /// image.
     #[inline]
     pub(crate) fn inset(&self, h: [f32; 3], inset: f32) -> Option<Footprint> {
         let fp = self.inset_footprint_of(h[0], h[1], h[2], inset);
@@ -278,8 +279,8 @@ impl Projector {
     #[inline]
     fn inset_footprint_of(&self, x: f32, y: f32, z: f32, inset: f32) -> Footprint {
         let inv = 1.0 / z;
-        // Half a pixel less than the footprint's reach, less the inset, never below the
-        // centre's own pixel; `max` also keeps a NaN radius (z = 0) from spreading.
+        // The half-edge less the inset, never below 0 (the centre's own pixel); `max` also
+        // turns a NaN radius (z = 0) into 0, and `rect` then finds the footprint empty.
         let r = (self.half * inv - inset).max(0.0);
         self.rect(x * inv, y * inv, r, z)
     }
