@@ -672,48 +672,19 @@ mod tests {
             .unwrap_or_default()
     }
 
-    /// Fault injection: a view's image cannot be put in place (a folder stands at its path,
-    /// which the rename cannot replace, whoever runs the test). The error names the file, the
-    /// recorded views are untouched, no temporary file is left, and once the fault is gone the
-    /// same index is captured.
-    #[test]
-    fn a_view_that_cannot_be_written_loses_nothing() -> Result<()> {
-        let (dir, mut session) = fresh("image-fault")?;
+    /// Fault injection: a session holding one view is asked to add a second while a folder
+    /// stands at the path `blocker` gives (a folder no write or rename can replace, whoever
+    /// runs the test). The attempt must fail naming that path, leave the session as it was in
+    /// memory and on disk, and leave no temporary file among the views; then the folder is
+    /// removed. Returns the session folder and the session.
+    fn second_view_against(
+        name: &str,
+        blocker: impl Fn(&Path) -> PathBuf,
+    ) -> Result<(PathBuf, Session)> {
+        let (dir, mut session) = fresh(name)?;
         session.add_view(Angle::ZERO, 0, &grey(10), None)?;
         let before = std::fs::read(dir.join("session.json")).map_err(io("reading", &dir))?;
-        let blocker = dir.join("views/0001.png");
-        std::fs::create_dir_all(blocker.join("x")).map_err(io("creating", &blocker))?;
-        match session.add_view(Angle::from_degrees(10.0), 1, &grey(20), None) {
-            Err(Error::Io { path, .. }) => assert_eq!(path, blocker),
-            other => panic!(
-                "expected an i/o error naming {}: {other:?}",
-                blocker.display()
-            ),
-        }
-        assert_eq!(session.file().views.len(), 1);
-        assert_eq!(
-            std::fs::read(dir.join("session.json")).map_err(io("reading", &dir))?,
-            before
-        );
-        assert_eq!(hidden(&dir.join("views")), Vec::<String>::new());
-        std::fs::remove_dir_all(&blocker).map_err(io("removing", &blocker))?;
-        session.add_view(Angle::from_degrees(10.0), 1, &grey(20), None)?;
-        let reopened = Session::open(&dir)?;
-        assert_eq!(reopened.file().views.len(), 2);
-        assert_eq!(reopened.load_views()?[1].image, grey(20));
-        let _ = std::fs::remove_dir_all(&dir);
-        Ok(())
-    }
-
-    /// Fault injection: `session.json` cannot be written (a folder stands where its temporary
-    /// file goes) after a view's image was. The view is then not in the session, in memory or
-    /// on disk, and the next attempt records it under the same index.
-    #[test]
-    fn a_view_whose_record_cannot_be_saved_is_not_in_the_session() -> Result<()> {
-        let (dir, mut session) = fresh("record-fault")?;
-        session.add_view(Angle::ZERO, 0, &grey(10), None)?;
-        let before = std::fs::read(dir.join("session.json")).map_err(io("reading", &dir))?;
-        let blocker = dir.join(format!(".session.json.tmp-{}", std::process::id()));
+        let blocker = blocker(&dir);
         std::fs::create_dir_all(&blocker).map_err(io("creating", &blocker))?;
         match session.add_view(Angle::from_degrees(10.0), 1, &grey(20), None) {
             Err(Error::Io { path, .. }) => assert_eq!(path, blocker),
@@ -728,10 +699,35 @@ mod tests {
             before
         );
         assert_eq!(Session::open(&dir)?.file().views.len(), 1);
+        assert_eq!(hidden(&dir.join("views")), Vec::<String>::new());
         std::fs::remove_dir_all(&blocker).map_err(io("removing", &blocker))?;
+        Ok((dir, session))
+    }
+
+    /// A view's image cannot be put in place; once the fault is gone the same index is
+    /// captured.
+    #[test]
+    fn a_view_that_cannot_be_written_loses_nothing() -> Result<()> {
+        let (dir, mut session) =
+            second_view_against("image-fault", |dir| dir.join("views/0001.png"))?;
+        session.add_view(Angle::from_degrees(10.0), 1, &grey(20), None)?;
+        let views = Session::open(&dir)?.load_views()?;
+        assert_eq!(views.len(), 2);
+        assert_eq!(views[1].image, grey(20));
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(())
+    }
+
+    /// `session.json` cannot be written (a folder stands where its temporary file goes)
+    /// after a view's image was: the view is not in the session, in memory or on disk, and
+    /// the next attempt records it under the same index.
+    #[test]
+    fn a_view_whose_record_cannot_be_saved_is_not_in_the_session() -> Result<()> {
+        let (dir, mut session) = second_view_against("record-fault", |dir| {
+            dir.join(format!(".session.json.tmp-{}", std::process::id()))
+        })?;
         session.add_view(Angle::from_degrees(10.0), 1, &grey(30), None)?;
-        let reopened = Session::open(&dir)?;
-        let views = reopened.load_views()?;
+        let views = Session::open(&dir)?.load_views()?;
         assert_eq!(views.len(), 2);
         assert_eq!((views[1].record.index, &views[1].image), (1, &grey(30)));
         let _ = std::fs::remove_dir_all(&dir);
