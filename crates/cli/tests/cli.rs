@@ -194,6 +194,14 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert_eq!(voxels(&["--behind-hull", "-0.3"])?, summary["voxels"]);
     assert_ne!(voxels(&["--behind-hull", "off"])?, summary["voxels"]);
     assert!(refused(&reconstruct(&["--behind-hull", "1.5"])?, "`1.5`"));
+    // Sampling inside the footprints: inset 0 is the default, an inset judges fewer voxels
+    // and keeps another model, and an inset past the library's range is refused.
+    assert_eq!(voxels(&["--sample-inset", "0"])?, summary["voxels"]);
+    assert_ne!(voxels(&["--sample-inset", "1"])?, summary["voxels"]);
+    let before = std::fs::read(dir.join("model.ply"))?;
+    assert!(refused(&reconstruct(&["--sample-inset", "9"])?, "`9`"));
+    assert!(refused(&reconstruct(&["--sample-inset", "NaN"])?, "`NaN`"));
+    assert_eq!(std::fs::read(dir.join("model.ply"))?, before);
 
     // `aibr render` of the session with `args`, writing to `to`.
     let render = |args: &[&str], to: &Path| {
