@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use aibr_camera::{Aabb, Angle, PanRange};
+use aibr_camera::{Aabb, Angle, CircularMotion, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
     ConsistencyParams, PairScore, PlanParams, TurntableLimits, edge_on_pans, plan_next_aimed,
@@ -411,6 +411,9 @@ pub fn capture<R: Turntable + FrameSource>(
     }
     if params.strategy == Strategy::Active {
         let volume = session.volume()?;
+        // The calibration's pose model, when the planner aims at the model's flat faces.
+        let motion = session.calibration()?.motion;
+        let aims_from = (params.aim_reach > 0.0).then_some(&motion);
         let mut scores: Vec<PairScore> = Vec::new();
         let mut aims: Vec<Angle> = Vec::new();
         let mut since_refine = 0usize;
@@ -428,6 +431,7 @@ pub fn capture<R: Turntable + FrameSource>(
                 &volume,
                 params,
                 &range,
+                aims_from,
                 &mut timings,
                 &mut algorithm,
             )?;
@@ -450,6 +454,7 @@ pub fn capture<R: Turntable + FrameSource>(
                     &volume,
                     params,
                     &range,
+                    aims_from,
                     &mut timings,
                     &mut algorithm,
                 )?;
@@ -553,6 +558,7 @@ pub fn pair_scores(
         &session.volume()?,
         &params,
         &range,
+        None,
         &mut timings,
         &mut algorithm,
     )?;
@@ -563,11 +569,14 @@ pub fn pair_scores(
     Ok((pans, scores))
 }
 
+/// The scores of `views`' neighbouring pairs from their model; with the turntable's pose
+/// model `aims_from`, also the pans that see the model's flat faces edge-on ([`face_aims`]).
 fn score_views(
     views: &[LoadedView],
     volume: &Aabb,
     params: &CaptureParams,
     range: &PanRange,
+    aims_from: Option<&CircularMotion>,
     timings: &mut StageTimings,
     algorithm: &mut &'static str,
 ) -> Result<(Vec<PairScore>, Vec<Angle>)> {
@@ -589,31 +598,24 @@ fn score_views(
         .map(|v| Angle::from_radians(v.record.pan_rad))
         .collect();
     let scores = score_pairs(&rec.model, &vs, &pans, range, &ConsistencyParams::default())?;
-    let aims = if params.aim_reach > 0.0 {
-        face_aims(&rec.model, views, range)?
-    } else {
-        Vec::new()
+    let aims = match aims_from {
+        Some(motion) => face_aims(&rec.model, motion, range)?,
+        None => Vec::new(),
     };
     timings.scoring_ms += t.elapsed().as_secs_f64() * 1e3;
     Ok((scores, aims))
 }
 
-/// The pans of `range` that see a flat face of `model` edge-on: where the planner aims.
+/// The pans of `range` that see a flat face of `model` edge-on, for a camera moving by
+/// `motion`: where the planner aims.
 fn face_aims(
     model: &aibr_voxel::VoxelModel,
-    views: &[LoadedView],
+    motion: &CircularMotion,
     range: &PanRange,
 ) -> Result<Vec<Angle>> {
-    let Some(first) = views.first() else {
-        return Ok(Vec::new());
-    };
-    // The camera centre at pan 0: the first view's, turned back by its pan.
-    let turn =
-        nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), first.record.pan_rad);
-    let centre_at_zero = turn * first.camera.centre();
     let faces = planar_faces(model, &FaceParams::default())?;
     Ok(faces
         .iter()
-        .flat_map(|f| edge_on_pans(f, &centre_at_zero, range))
+        .flat_map(|f| edge_on_pans(f, motion, range))
         .collect())
 }

@@ -1,8 +1,7 @@
 //! The split planner: where to capture the next view.
 
-use aibr_camera::{Angle, PanRange};
+use aibr_camera::{Angle, CircularMotion, PanRange};
 use aibr_voxel::PlanarFace;
-use nalgebra::Point3;
 
 use crate::error::{Error, Result};
 use crate::estimator::PairScore;
@@ -113,27 +112,28 @@ impl PlanParams {
 /// degrees of pan at the catalogue's 0.55 m.
 pub const AIM_DONE_DEG: f64 = 1.0;
 
-/// The pans of `range` from which a camera on the turntable's circle sees `face` edge-on:
-/// where its centre lies in the face's plane. `centre_at_zero` is the camera centre at pan 0
-/// in the model's (turntable) frame; the camera circles the Z axis, its centre at pan `t`
-/// being `Rot_z(-t) * centre_at_zero` (`aibr-camera`'s convention). Empty when the circle
-/// misses the plane.
-pub fn edge_on_pans(
-    face: &PlanarFace,
-    centre_at_zero: &Point3<f64>,
-    range: &PanRange,
-) -> Vec<Angle> {
-    let n = face.normal;
-    let (m, rho) = (n.x.hypot(n.y), centre_at_zero.x.hypot(centre_at_zero.y));
+/// The pans of `range` from which the camera sees `face` edge-on: where its centre lies in
+/// the face's plane. `motion` is the turntable's pose model, in the frame of the model the
+/// face was found in; its axis may be any line (the plane and the camera's circle are taken
+/// into the turntable frame of `motion`, where the axis is +Z through the origin and the
+/// centre at pan `t` is `Rot_z(-t)` of the centre at pan 0, `aibr-camera`'s convention).
+/// Empty when the circle misses the plane.
+pub fn edge_on_pans(face: &PlanarFace, motion: &CircularMotion, range: &PanRange) -> Vec<Angle> {
+    let to_turntable = motion.turntable_from_world();
+    let n = to_turntable.rotation * face.normal;
+    // n . y = offset + n . translation for the plane's points y in the turntable frame.
+    let offset = face.offset_m + n.dot(&to_turntable.translation.vector);
+    let c = to_turntable * motion.centre_at_zero();
+    let (m, rho) = (n.x.hypot(n.y), c.x.hypot(c.y));
     if !(m * rho > 1e-12) {
         return Vec::new();
     }
     // n . Rot_z(-t) c = (Rot_z(t) n) . c = m rho cos(phi + t - alpha) + n_z c_z.
-    let q = (face.offset_m - n.z * centre_at_zero.z) / (m * rho);
+    let q = (offset - n.z * c.z) / (m * rho);
     if !(q.abs() <= 1.0) {
         return Vec::new();
     }
-    let base = centre_at_zero.y.atan2(centre_at_zero.x) - n.y.atan2(n.x);
+    let base = c.y.atan2(c.x) - n.y.atan2(n.x);
     let spread = q.acos();
     let mut out: Vec<Angle> = [base - spread, base + spread]
         .into_iter()

@@ -1,6 +1,6 @@
 //! The estimator and the planner on synthetic turntable scenes.
 
-use aibr_camera::{Angle, Camera, PanRange};
+use aibr_camera::{Angle, Camera, CircularMotion, PanRange, TurntableAxis};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
     AIM_DONE_DEG, ConsistencyParams, Error, PairScore, PlanParams, TurntableLimits, edge_on_pans,
@@ -9,7 +9,7 @@ use aibr_consistency::{
 use aibr_scene::{Frame, RenderOptions, catalogue};
 use aibr_voxel::{ColoringParams, PlanarFace, View, VoxelGrid, VoxelModel, voxel_coloring};
 use image::{GrayImage, RgbImage};
-use nalgebra::Vector3;
+use nalgebra::{Point3, Unit, Vector3};
 use proptest::prelude::*;
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
@@ -271,7 +271,7 @@ fn the_width_power_trades_score_against_width() -> TestResult {
 fn edge_on_pans_put_the_camera_centre_in_the_face_plane() -> TestResult {
     let scene = catalogue::lambertian()?;
     let range = scene.rig.pan_range;
-    let centre_at_zero = scene.camera(Angle::ZERO)?.centre();
+    let motion = scene.rig.ring;
     // The faces of a box 0.13 m wide about the axis, and one leaning 10 degrees.
     let lean = 10f64.to_radians();
     let faces = [
@@ -285,7 +285,7 @@ fn edge_on_pans_put_the_camera_centre_in_the_face_plane() -> TestResult {
             offset_m,
             voxels: 1,
         };
-        let pans = edge_on_pans(&face, &centre_at_zero, &range);
+        let pans = edge_on_pans(&face, &motion, &range);
         assert!(!pans.is_empty(), "{normal:?}");
         for pan in pans {
             let c = scene.camera(pan)?.centre();
@@ -303,7 +303,7 @@ fn edge_on_pans_put_the_camera_centre_in_the_face_plane() -> TestResult {
         offset_m: 0.065,
         voxels: 1,
     };
-    let mut pans: Vec<f64> = edge_on_pans(&face, &centre_at_zero, &range)
+    let mut pans: Vec<f64> = edge_on_pans(&face, &motion, &range)
         .iter()
         .map(|a| a.degrees())
         .collect();
@@ -320,7 +320,29 @@ fn edge_on_pans_put_the_camera_centre_in_the_face_plane() -> TestResult {
         offset_m: 0.6,
         voxels: 1,
     };
-    assert!(edge_on_pans(&far, &centre_at_zero, &range).is_empty());
+    assert!(edge_on_pans(&far, &motion, &range).is_empty());
+    // A calibrated axis need not be the frame's Z: off the origin and leaning, the camera's
+    // centre at each pan returned still lies in the plane.
+    let leaning = CircularMotion {
+        axis: TurntableAxis {
+            point: Point3::new(0.04, 0.01, 0.0),
+            direction: Unit::new_normalize(Vector3::new(0.05, -0.02, 1.0)),
+        },
+        ..motion
+    };
+    let face = PlanarFace {
+        normal: Vector3::new(1.0, 0.0, 0.0),
+        offset_m: 0.1,
+        voxels: 1,
+    };
+    let pans = edge_on_pans(&face, &leaning, &range);
+    assert!(!pans.is_empty());
+    for pan in pans {
+        let c = leaning
+            .cam_from_world(pan)
+            .inverse_transform_point(&Point3::origin());
+        assert!((c.x - 0.1).abs() < 1e-9, "{pan}: {c:?}");
+    }
     Ok(())
 }
 
