@@ -123,11 +123,37 @@ pub struct PlanarFace {
 /// module docs). An empty list when the model has none (a ball, a drum) or no surface.
 pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<PlanarFace>> {
     params.validate()?;
+    let votes = normal_votes(model, params);
+    let size = model.grid().voxel_size();
+    // The window of votes that make a face, either side of its peak.
+    let half = (params.smoothing_deg.max(1.0)).to_radians();
+    let mut faces: Vec<PlanarFace> = Vec::new();
+    for peak in direction_peaks(&votes, params) {
+        let Some(face) = face_at_peak(&votes, peak, half, size, params) else {
+            continue;
+        };
+        // One face per direction: a peak within the smoothing width of a kept face's
+        // direction and plane is that face again.
+        let again = faces.iter().any(|f| {
+            f.normal.dot(&face.normal) > half.cos()
+                && (f.offset_m - face.offset_m).abs() <= 3.0 * size
+        });
+        if !again {
+            faces.push(face);
+        }
+    }
+    faces.sort_by_key(|f| std::cmp::Reverse(f.voxels));
+    Ok(faces)
+}
+
+/// The surface voxels of `model` whose neighbourhood is flat and whose normal is nearly
+/// horizontal: their centres and the horizontal directions of their normals (radians).
+///
+/// Voxel coloring leaves a shell (only the voxels it saw and kept), so a voxel's normal is
+/// that of the surface voxels around it: the least direction of their spread within a ball of
+/// `params.normal_radius` voxels, turned away from the model's centre.
+fn normal_votes(model: &VoxelModel, params: &FaceParams) -> Vec<(Point3<f64>, f64)> {
     let grid = *model.grid();
-    let size = grid.voxel_size();
-    let r = params.normal_radius as isize;
-    // Voxel coloring leaves a shell (only the voxels it saw and kept), so a voxel's normal is
-    // that of the surface voxels around it: the least direction of their spread.
     let surface = model.surface_voxels();
     let mut on_surface = ndarray::Array3::from_elem(grid.shape(), false);
     for &[i, j, k] in &surface {
@@ -139,6 +165,12 @@ pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<Plana
             _ => false,
         }
     };
+    // The ball's offsets, once.
+    let r = params.normal_radius as isize;
+    let ball: Vec<[isize; 3]> = (-r..=r)
+        .flat_map(|dk| (-r..=r).flat_map(move |dj| (-r..=r).map(move |di| [di, dj, dk])))
+        .filter(|[di, dj, dk]| di * di + dj * dj + dk * dk <= r * r)
+        .collect();
     let centroid = {
         let sum = surface
             .iter()
@@ -146,22 +178,18 @@ pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<Plana
         sum / surface.len().max(1) as f64
     };
     let max_tilt = params.max_tilt_deg.to_radians().sin();
-    // Surface voxels with a nearly horizontal normal: (centre, horizontal direction, radians).
-    let mut votes: Vec<(Point3<f64>, f64)> = Vec::new();
+    let mut votes = Vec::new();
     for &[i, j, k] in &surface {
         let (ci, cj, ck) = (i as isize, j as isize, k as isize);
         let (mut count, mut sum, mut outer) = (0.0, Vector3::zeros(), Matrix3::zeros());
-        for dk in -r..=r {
-            for dj in -r..=r {
-                for di in -r..=r {
-                    if di * di + dj * dj + dk * dk <= r * r && at(ci + di, cj + dj, ck + dk) {
-                        let d = Vector3::new(di as f64, dj as f64, dk as f64);
-                        count += 1.0;
-                        sum += d;
-                        outer += d * d.transpose();
-                    }
-                }
-            }
+        for &[di, dj, dk] in ball
+            .iter()
+            .filter(|[di, dj, dk]| at(ci + di, cj + dj, ck + dk))
+        {
+            let d = Vector3::new(di as f64, dj as f64, dk as f64);
+            count += 1.0;
+            sum += d;
+            outer += d * d.transpose();
         }
         if count < 6.0 {
             continue;
@@ -191,119 +219,113 @@ pub fn planar_faces(model: &VoxelModel, params: &FaceParams) -> Result<Vec<Plana
         }
         votes.push((centre, n.y.atan2(n.x)));
     }
-    if votes.is_empty() {
-        return Ok(Vec::new());
-    }
-    // The direction histogram, one bin a degree, smoothed with a triangle of the given width.
+    votes
+}
+
+/// The peaks of the votes' direction histogram (one bin a degree, smoothed with a triangle
+/// of `params.smoothing_deg` either side) holding at least `params.min_share` of the votes
+/// within that width, highest first.
+fn direction_peaks(votes: &[(Point3<f64>, f64)], params: &FaceParams) -> Vec<usize> {
     const BINS: usize = 360;
     let bin_of = |a: f64| -> usize {
         let d = a.to_degrees().rem_euclid(360.0);
         (d.floor() as usize).min(BINS - 1)
     };
     let mut histogram = [0f64; BINS];
-    for &(_, a) in &votes {
+    for &(_, a) in votes {
         histogram[bin_of(a)] += 1.0;
     }
+    // Bin `b + d`, round the circle.
+    let around = |b: usize, d: isize| (b as isize + d).rem_euclid(BINS as isize) as usize;
     let w = params.smoothing_deg.round() as isize;
     let mut smooth = [0f64; BINS];
     for (b, s) in smooth.iter_mut().enumerate() {
         for d in -w..=w {
             let weight = (w + 1 - d.abs()) as f64 / (w + 1) as f64;
-            *s += weight * histogram[(b as isize + d).rem_euclid(BINS as isize) as usize];
+            *s += weight * histogram[around(b, d)];
         }
     }
     // A peak's share: the votes within the smoothing width of it, over all votes.
     let total = votes.len() as f64;
-    let window = |b: usize| -> f64 {
-        (-w..=w)
-            .map(|d| histogram[(b as isize + d).rem_euclid(BINS as isize) as usize])
-            .sum()
-    };
+    let window = |b: usize| -> f64 { (-w..=w).map(|d| histogram[around(b, d)]).sum() };
     let mut peaks: Vec<usize> = (0..BINS)
         .filter(|&b| {
-            let (prev, next) = (smooth[(b + BINS - 1) % BINS], smooth[(b + 1) % BINS]);
+            let (prev, next) = (smooth[around(b, -1)], smooth[around(b, 1)]);
             smooth[b] > prev && smooth[b] >= next && window(b) >= params.min_share * total
         })
         .collect();
     peaks.sort_by(|&a, &b| smooth[b].total_cmp(&smooth[a]));
-    // The window of votes that make a face, either side of its peak.
-    let half = (params.smoothing_deg.max(1.0)).to_radians();
-    let mut faces: Vec<PlanarFace> = Vec::new();
-    for peak in peaks {
-        // The face's direction: the circular mean of the votes within the window.
-        let centre = (peak as f64 + 0.5).to_radians();
-        let near = |a: f64| {
-            (a - centre + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                - std::f64::consts::PI
-        };
-        let members: Vec<&(Point3<f64>, f64)> = votes
-            .iter()
-            .filter(|(_, a)| near(*a).abs() <= half)
-            .collect();
-        let (s, c) = members
-            .iter()
-            .fold((0.0, 0.0), |(s, c), (_, a)| (s + a.sin(), c + a.cos()));
-        let direction = s.atan2(c);
-        let normal = Vector3::new(direction.cos(), direction.sin(), 0.0);
-        // The plane through the densest offset (bins of one voxel, a window of five).
-        let offsets: Vec<f64> = members.iter().map(|(p, _)| normal.dot(&p.coords)).collect();
-        let lo = offsets.iter().copied().fold(f64::INFINITY, f64::min);
-        let bins = ((offsets.iter().copied().fold(f64::NEG_INFINITY, f64::max) - lo) / size).floor()
-            as usize
-            + 1;
-        let mut counts = vec![0usize; bins];
-        for t in &offsets {
-            counts[(((t - lo) / size).floor() as usize).min(bins - 1)] += 1;
-        }
-        let Some((best, _)) = (0..bins)
-            .map(|b| {
-                (
-                    b,
-                    counts[b.saturating_sub(2)..(b + 3).min(bins)]
-                        .iter()
-                        .sum::<usize>(),
-                )
-            })
-            .max_by(|x, y| x.1.cmp(&y.1).then(y.0.cmp(&x.0)))
-        else {
-            continue;
-        };
-        let plane = lo + (best as f64 + 0.5) * size;
-        let on: Vec<(&Point3<f64>, f64)> = members
-            .iter()
-            .zip(&offsets)
-            .filter(|(_, t)| (*t - plane).abs() <= 2.0 * size)
-            .map(|((p, _), t)| (p, *t))
-            .collect();
-        if on.len() < params.min_voxels {
-            continue;
-        }
-        let along = Vector3::new(-normal.y, normal.x, 0.0);
-        let (a_lo, a_hi) = on
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (p, _)| {
-                let a = along.dot(&p.coords);
-                (l.min(a), h.max(a))
-            });
-        if (a_hi - a_lo) / size < params.min_span_voxels {
-            continue;
-        }
-        let offset_m = on.iter().map(|(_, t)| t).sum::<f64>() / on.len() as f64;
-        // One face per direction: a peak within the smoothing width of a kept face's
-        // direction and plane is that face again.
-        let again = faces.iter().any(|f| {
-            f.normal.dot(&normal) > half.cos() && (f.offset_m - offset_m).abs() <= 3.0 * size
-        });
-        if !again {
-            faces.push(PlanarFace {
-                normal,
-                offset_m,
-                voxels: on.len(),
-            });
-        }
+    peaks
+}
+
+/// The face of the votes within `half` (radians) of the direction of bin `peak`: its normal
+/// the votes' circular mean, its plane through their densest offset (bins of one voxel of
+/// `size` metres, a window of five); `None` when fewer than `params.min_voxels` lie within
+/// two voxels of the plane or they span less than `params.min_span_voxels`.
+fn face_at_peak(
+    votes: &[(Point3<f64>, f64)],
+    peak: usize,
+    half: f64,
+    size: f64,
+    params: &FaceParams,
+) -> Option<PlanarFace> {
+    let centre = (peak as f64 + 0.5).to_radians();
+    let near = |a: f64| {
+        (a - centre + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+    };
+    let members: Vec<&(Point3<f64>, f64)> = votes
+        .iter()
+        .filter(|(_, a)| near(*a).abs() <= half)
+        .collect();
+    let (s, c) = members
+        .iter()
+        .fold((0.0, 0.0), |(s, c), (_, a)| (s + a.sin(), c + a.cos()));
+    let direction = s.atan2(c);
+    let normal = Vector3::new(direction.cos(), direction.sin(), 0.0);
+    let offsets: Vec<f64> = members.iter().map(|(p, _)| normal.dot(&p.coords)).collect();
+    let lo = offsets.iter().copied().fold(f64::INFINITY, f64::min);
+    let bins = ((offsets.iter().copied().fold(f64::NEG_INFINITY, f64::max) - lo) / size).floor()
+        as usize
+        + 1;
+    let mut counts = vec![0usize; bins];
+    for t in &offsets {
+        counts[(((t - lo) / size).floor() as usize).min(bins - 1)] += 1;
     }
-    faces.sort_by_key(|f| std::cmp::Reverse(f.voxels));
-    Ok(faces)
+    let (best, _) = (0..bins)
+        .map(|b| {
+            (
+                b,
+                counts[b.saturating_sub(2)..(b + 3).min(bins)]
+                    .iter()
+                    .sum::<usize>(),
+            )
+        })
+        .max_by(|x, y| x.1.cmp(&y.1).then(y.0.cmp(&x.0)))?;
+    let plane = lo + (best as f64 + 0.5) * size;
+    let on: Vec<(&Point3<f64>, f64)> = members
+        .iter()
+        .zip(&offsets)
+        .filter(|(_, t)| (*t - plane).abs() <= 2.0 * size)
+        .map(|((p, _), t)| (p, *t))
+        .collect();
+    if on.len() < params.min_voxels {
+        return None;
+    }
+    let along = Vector3::new(-normal.y, normal.x, 0.0);
+    let (a_lo, a_hi) = on
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (p, _)| {
+            let a = along.dot(&p.coords);
+            (l.min(a), h.max(a))
+        });
+    if (a_hi - a_lo) / size < params.min_span_voxels {
+        return None;
+    }
+    Some(PlanarFace {
+        normal,
+        offset_m: on.iter().map(|(_, t)| t).sum::<f64>() / on.len() as f64,
+        voxels: on.len(),
+    })
 }
 
 #[cfg(test)]
