@@ -359,19 +359,18 @@ struct ReconstructArgs {
     json: bool,
 }
 
-/// `--sample-inset`: pixels in the range `ColoringParams::validate` accepts, checked before
-/// the session is read.
+/// Whether the library takes the default [`ColoringParams`] changed by `set`: the options'
+/// parsers refuse what `ColoringParams::validate` would, before the session is read.
+fn coloring_accepts(set: impl FnOnce(&mut ColoringParams)) -> bool {
+    let mut params = ColoringParams::default();
+    set(&mut params);
+    params.validate().is_ok()
+}
+
+/// `--sample-inset`: pixels inside the footprint, in [0, 8].
 fn parse_sample_inset(s: &str) -> std::result::Result<f32, String> {
-    let valid = |inset: f32| {
-        ColoringParams {
-            sample_inset: inset,
-            ..ColoringParams::default()
-        }
-        .validate()
-        .is_ok()
-    };
     match s.parse::<f32>() {
-        Ok(inset) if valid(inset) => Ok(inset),
+        Ok(inset) if coloring_accepts(|p| p.sample_inset = inset) => Ok(inset),
         _ => Err(format!("`{s}` is not a number of pixels in [0, 8]")),
     }
 }
@@ -384,18 +383,8 @@ fn parse_behind_hull(s: &str) -> std::result::Result<BehindHull, String> {
     if s.eq_ignore_ascii_case("off") {
         return Ok(BehindHull(None));
     }
-    // The range is the library's rule (`ColoringParams::validate`), checked here so that a
-    // bad value is refused before the session is read.
-    let valid = |c: f64| {
-        ColoringParams {
-            behind_hull: Some(c),
-            ..ColoringParams::default()
-        }
-        .validate()
-        .is_ok()
-    };
     match s.parse::<f64>() {
-        Ok(c) if valid(c) => Ok(BehindHull(Some(c))),
+        Ok(c) if coloring_accepts(|p| p.behind_hull = Some(c)) => Ok(BehindHull(Some(c))),
         _ => Err(format!("`{s}` is neither a cosine in [-1, 1] nor `off`")),
     }
 }
