@@ -762,14 +762,13 @@ pub fn voxel_coloring_reference(
         let mut layer = Vec::new();
         for j in 0..ny {
             for i in 0..nx {
-                let project = |v: usize| {
+                // The voxel's centre in view `v`, its footprint there, and its sampled pixels.
+                let centre_in = |v: usize| {
                     let p = &projectors[v];
-                    p.footprint(p.along_row(&p.row_base(grid, j, k), i))
+                    p.along_row(&p.row_base(grid, j, k), i)
                 };
-                let sampled = |v: usize| {
-                    let p = &projectors[v];
-                    p.inset(p.along_row(&p.row_base(grid, j, k), i), params.sample_inset)
-                };
+                let project = |v: usize| projectors[v].footprint(centre_in(v));
+                let sampled = |v: usize| projectors[v].inset(centre_in(v), params.sample_inset);
                 let background =
                     (0..n).any(|v| project(v).is_some_and(|fp| pixels[v].all_background(&fp)));
                 if background {
