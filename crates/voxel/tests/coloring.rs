@@ -4,7 +4,7 @@ use aibr_camera::{Angle, Camera, Distortion};
 use aibr_scene::{Frame, RenderOptions, Scene, catalogue};
 use aibr_voxel::metrics::geometry_score;
 use aibr_voxel::{
-    CarvingParams, ColoringParams, Criterion, Error, PlyOptions, View, VoxelGrid, VoxelModel,
+    CarvingParams, ColoringParams, Criterion, Error, PlyOptions, Reconstruction, View, VoxelGrid,
     space_carving, visual_hull, voxel_coloring, voxel_coloring_reference, write_ply,
 };
 use image::{GrayImage, RgbImage};
@@ -52,20 +52,20 @@ impl Capture {
 }
 
 /// Runs the fast path and the reference; asserts a model worth comparing, the same model
-/// voxel for voxel and the same counts; returns the model.
+/// voxel for voxel and the same counts; returns the fast path's reconstruction.
 fn fast_equals_reference(
     grid: &VoxelGrid,
     views: &[View<'_>],
     params: &ColoringParams,
     case: &str,
-) -> Result<VoxelModel, Box<dyn std::error::Error>> {
+) -> Result<Reconstruction, Box<dyn std::error::Error>> {
     let fast = voxel_coloring(grid, views, params)?;
     let reference = voxel_coloring_reference(grid, views, params)?;
     assert!(fast.model.occupied_count() > 100, "{case}");
     assert!(fast.model == reference.model, "{case}");
     assert_eq!(fast.stats.tested, reference.stats.tested, "{case}");
     assert_eq!(fast.stats.kept, reference.stats.kept, "{case}");
-    Ok(fast.model)
+    Ok(fast)
 }
 
 #[test]
@@ -88,12 +88,9 @@ fn fast_path_equals_the_reference_voxel_for_voxel() -> TestResult {
                         "masks {masks}, {criterion:?}, visible_only {visible_only}, \
                          behind_hull {behind_hull:?}"
                     );
-                    models.push(fast_equals_reference(
-                        &grid,
-                        &cap.views(masks),
-                        &params,
-                        &case,
-                    )?);
+                    models.push(
+                        fast_equals_reference(&grid, &cap.views(masks), &params, &case)?.model,
+                    );
                 }
                 // The views behind the hull are left out only where there is a hull, and
                 // then they change the model: the comparison above tests that path too.
@@ -121,17 +118,13 @@ fn fast_path_equals_the_reference_at_any_sample_inset() -> TestResult {
             sample_inset,
             ..ColoringParams::default()
         };
-        fast_equals_reference(
+        let fast = fast_equals_reference(
             &grid,
             &cap.views(true),
             &params,
             &format!("inset {sample_inset}"),
         )?;
-        tested.push(
-            voxel_coloring(&grid, &cap.views(true), &params)?
-                .stats
-                .tested,
-        );
+        tested.push(fast.stats.tested);
     }
     // A deeper inset leaves fewer voxels seen by enough views to be judged: those whose
     // open pixels lie only at the rim of their footprints.
