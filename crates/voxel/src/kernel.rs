@@ -166,6 +166,10 @@ pub(crate) struct Projector {
     half: f32,
     width: i32,
     height: i32,
+    /// The last column and row of the image, `width - 1` and `height - 1`, as floats (at
+    /// most [`HOLD`]).
+    last_u: f32,
+    last_v: f32,
     /// Camera centre, world.
     pub(crate) centre: Point3<f64>,
 }
@@ -191,6 +195,9 @@ impl Projector {
             p,
             width: camera.size.width as i32,
             height: camera.size.height as i32,
+            // Within `round`'s hold, as `round(x).min(width - 1)` was for any width.
+            last_u: (camera.size.width as f32 - 1.0).min(HOLD),
+            last_v: (camera.size.height as f32 - 1.0).min(HOLD),
             centre: camera.centre(),
         }
     }
@@ -286,8 +293,17 @@ impl Projector {
     fn rect(&self, u: f32, v: f32, r: f32, z: f32) -> Footprint {
         // Clamped to the image, a footprint wholly off it comes out empty, as `clip` would
         // have it (`u0 <= u1` before clamping).
-        let (u0, u1) = (round(u - r).max(0), round(u + r).min(self.width - 1));
-        let (v0, v1) = (round(v - r).max(0), round(v + r).min(self.height - 1));
+        // `round(x).max(0)` is `round_within(x, 0, HOLD)` and `round(x).min(last)` is
+        // `round_within(x, -HOLD_BELOW, last)`, the clamps done in floats, where baseline
+        // x86-64 has vector minimum and maximum instructions (not for 32-bit integers).
+        let (u0, u1) = (
+            round_within(u - r, 0.0, HOLD),
+            round_within(u + r, -HOLD_BELOW, self.last_u),
+        );
+        let (v0, v1) = (
+            round_within(v - r, 0.0, HOLD),
+            round_within(v + r, -HOLD_BELOW, self.last_v),
+        );
         let empty = !(z > 0.0) || u0 > u1 || v0 > v1;
         if empty {
             Footprint::EMPTY
@@ -442,13 +458,25 @@ fn along_row_by_eight(i0: usize, out: &mut [Footprint], footprint: impl Fn(f32) 
 /// low mantissa bits, and one comparison turns that into the floor.
 #[inline]
 fn round(x: f32) -> i32 {
+    round_within(x, -HOLD_BELOW, HOLD)
+}
+
+/// The hold of [`round`]: `x` is taken within `[-HOLD_BELOW, HOLD]`.
+const HOLD_BELOW: f32 = 1024.0;
+const HOLD: f32 = 1_048_576.0; // 2^20
+
+/// [`round`] of `x` held within `[lo, hi]` (NaN goes to `lo`), for integers `lo` and `hi`
+/// within [`round`]'s own hold: `floor(x + 0.5)` clamped to `[lo, hi]`, since rounding to
+/// the nearest integer keeps order and leaves integers as they are.
+#[inline]
+fn round_within(x: f32, lo: f32, hi: f32) -> i32 {
     const SHIFT: f32 = 8_388_608.0; // 2^23
     // Not `clamp`: that keeps NaN.
     #[allow(clippy::manual_clamp)]
-    let t = x.max(-1024.0).min(1_048_576.0) + 1024.5;
+    let t = x.max(lo).min(hi) + (HOLD_BELOW + 0.5);
     let y = t + SHIFT;
     let nearest = y.to_bits() as i32 - SHIFT.to_bits() as i32;
-    nearest - i32::from(y - SHIFT > t) - 1024
+    nearest - i32::from(y - SHIFT > t) - HOLD_BELOW as i32
 }
 
 /// Raw pixels of one view, for fast access.
@@ -1061,6 +1089,26 @@ mod tests {
         }
         for x in [2e6, 1e12, f32::INFINITY] {
             assert_eq!(round(x), 1 << 20, "{x}");
+        }
+        // Held within a narrower range, the rounding is the clamped rounding.
+        let everywhere = edges.into_iter().chain(far).chain([
+            -1e12,
+            -1025.0,
+            638.5,
+            640.0,
+            2e6,
+            f32::INFINITY,
+            f32::NAN,
+        ]);
+        for x in everywhere {
+            for x in [x, x.next_up(), x.next_down()] {
+                assert_eq!(round_within(x, 0.0, HOLD), round(x).max(0), "{x}");
+                assert_eq!(
+                    round_within(x, -HOLD_BELOW, 639.0),
+                    round(x).min(639),
+                    "{x}"
+                );
+            }
         }
     }
 
