@@ -1290,12 +1290,12 @@ mod tests {
         Ok(())
     }
 
-    /// A 19^3 grid over a 1 m box and a 160x120 camera on a ring about it, as the
-    /// projection proptests draw them; the camera may stand inside the grid.
     /// The first voxel of the rows the row-at-a-time tests project: 19 - 5 = 14 voxels, one
     /// run of eight and six more.
     const FIRST: usize = 5;
 
+    /// A 19^3 grid over a 1 m box and a 160x120 camera on a ring about it, as the
+    /// projection proptests draw them; the camera may stand inside the grid.
     fn ring_projector(
         radius: f64,
         height: f64,
