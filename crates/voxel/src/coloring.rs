@@ -446,12 +446,7 @@ impl BlockScratch {
         BlockScratch {
             silhouette: Vec::with_capacity(n),
             active: Vec::with_capacity(n),
-            footprints: BlockFootprints {
-                projected: vec![false; n],
-                footprints: vec![Footprint::EMPTY; n * cells],
-                sampled_projected: vec![false; n],
-                sampled: vec![Footprint::EMPTY; n * cells],
-            },
+            footprints: BlockFootprints::new(n),
             alive: vec![false; cells],
             samples: vec![
                 Sample {
@@ -467,21 +462,52 @@ impl BlockScratch {
     }
 }
 
-/// The footprints of one block's voxels in every view, each view's computed on first use.
-struct BlockFootprints {
+/// One kind of footprint of one block's voxels in every view, each view's computed on first
+/// use within the block.
+struct FootprintCache {
     /// Per view: are its footprints of the current block in `footprints`?
     projected: Vec<bool>,
     /// Per view, per voxel of the block (row-major, `BLOCK * BLOCK` a view): footprints,
-    /// empty where the voxel is behind the camera or off the image, for the silhouettes.
-    /// (A kept voxel's claims are projected when it is kept: few voxels are.)
+    /// empty where the voxel is behind the camera or off the image.
     footprints: Vec<Footprint>,
-    /// The same for the sampled footprints, inset by [`ColoringParams::sample_inset`]: the
-    /// pixels a voxel is judged by.
-    sampled_projected: Vec<bool>,
-    sampled: Vec<Footprint>,
+}
+
+impl FootprintCache {
+    fn new(n: usize) -> Self {
+        FootprintCache {
+            projected: vec![false; n],
+            footprints: vec![Footprint::EMPTY; n * BLOCK * BLOCK],
+        }
+    }
+
+    /// Forgets every view's footprints, for the next block.
+    fn clear(&mut self) {
+        self.projected.fill(false);
+    }
+}
+
+/// The footprints of one block's voxels in every view: the whole footprints (the pixels a
+/// voxel covers and claims; the silhouettes ask those) and the sampled ones, inset by
+/// [`ColoringParams::sample_inset`] (the pixels a voxel is judged by). Inset by nothing, the
+/// sampled footprints are the whole ones and share their cache.
+struct BlockFootprints {
+    whole: FootprintCache,
+    sampled: FootprintCache,
 }
 
 impl BlockFootprints {
+    fn new(n: usize) -> Self {
+        BlockFootprints {
+            whole: FootprintCache::new(n),
+            sampled: FootprintCache::new(n),
+        }
+    }
+
+    fn clear(&mut self) {
+        self.whole.clear();
+        self.sampled.clear();
+    }
+
     /// The footprints in view `v` of the voxels `[i0..i1) x [j0..j1)` of layer `k` (inset
     /// by `inset` pixels when it is `Some`), computed on first use within the block for the
     /// rows that hold a voxel still `alive` (flags row-major, as the footprints are). The
@@ -499,15 +525,14 @@ impl BlockFootprints {
         inset: Option<f32>,
     ) -> &[Footprint] {
         let cells = BLOCK * BLOCK;
-        // Inset by nothing, the sampled footprints are the footprints.
         let inset = inset.filter(|&inset| inset > 0.0);
-        let (projected, all) = match inset {
-            None => (&mut self.projected[v], &mut self.footprints),
-            Some(_) => (&mut self.sampled_projected[v], &mut self.sampled),
+        let cache = match inset {
+            None => &mut self.whole,
+            Some(_) => &mut self.sampled,
         };
-        let out = &mut all[v * cells..(v + 1) * cells];
-        if !*projected {
-            *projected = true;
+        let out = &mut cache.footprints[v * cells..(v + 1) * cells];
+        if !cache.projected[v] {
+            cache.projected[v] = true;
             let width = i1 - i0;
             for j in j0..j1 {
                 let row = (j - j0) * width..(j - j0 + 1) * width;
@@ -616,8 +641,7 @@ fn decide_block(
         // No voxel of the block can be seen by enough views (and so none is tested).
         return out;
     }
-    scratch.footprints.projected.fill(false);
-    scratch.footprints.sampled_projected.fill(false);
+    scratch.footprints.clear();
     let mut alive = match inside {
         Some(inside) => inside,
         None => {
