@@ -484,6 +484,12 @@ impl FootprintCache {
     fn clear(&mut self) {
         self.projected.fill(false);
     }
+
+    /// The cached footprints of view `v`, if they were computed for this block.
+    fn get(&self, v: usize) -> Option<&[Footprint]> {
+        let cells = BLOCK * BLOCK;
+        self.projected[v].then(|| &self.footprints[v * cells..(v + 1) * cells])
+    }
 }
 
 /// The footprints of one block's voxels in every view: the whole footprints (the pixels a
@@ -546,6 +552,24 @@ impl BlockFootprints {
             }
         }
         out
+    }
+
+    /// The whole footprint in view `v` of voxel `x` of the block, voxel `i` of row `j` of the
+    /// layer: from the cache when the view's whole footprints were computed for the block
+    /// while the voxel was alive (always, for a voxel kept: it was alive throughout), else
+    /// projected now.
+    fn whole_of(
+        &self,
+        p: &Projector,
+        v: usize,
+        x: usize,
+        (i, j): (usize, usize),
+        layer: &Layer<'_>,
+    ) -> Footprint {
+        match self.whole.get(v) {
+            Some(fps) => fps[x],
+            None => p.footprint_at(layer.base(v, j), i as f32).0,
+        }
     }
 }
 
@@ -747,7 +771,9 @@ fn decide_block(
             out.kept.push(([i, j, layer.k], c));
             // It claims its whole footprint in every view that could still see the block.
             for &v in &scratch.active {
-                let (fp, _) = projectors[v].footprint_at(layer.base(v, j), i as f32);
+                let fp = scratch
+                    .footprints
+                    .whole_of(&projectors[v], v, x, (i, j), layer);
                 if !fp.is_empty() {
                     out.claims.push((v as u32, fp));
                 }
