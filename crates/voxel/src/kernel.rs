@@ -218,12 +218,14 @@ impl Projector {
     /// Homogeneous projection of voxel `i` of a row with base `base`.
     #[inline]
     pub(crate) fn along_row(&self, base: &[f32; 3], i: usize) -> [f32; 3] {
-        let f = i as f32;
-        [
-            base[0] + self.inc[0] * f,
-            base[1] + self.inc[1] * f,
-            base[2] + self.inc[2] * f,
-        ]
+        self.along_row_at(base, i as f32)
+    }
+
+    /// [`Projector::along_row`] with the index given as `i as f32` (exact below 2^24), as the
+    /// loops over a row count it.
+    #[inline]
+    fn along_row_at(&self, base: &[f32; 3], i: f32) -> [f32; 3] {
+        [0, 1, 2].map(|a| base[a] + self.inc[a] * i)
     }
 
     /// The footprint of a voxel whose centre projects to `h`, clipped to the image; `None`
@@ -258,7 +260,7 @@ impl Projector {
         out: &mut [Footprint],
     ) {
         along_row_by_eight(i0, out, |i| {
-            let [x, y, z] = [0, 1, 2].map(|a| base[a] + self.inc[a] * i);
+            let [x, y, z] = self.along_row_at(base, i);
             self.inset_footprint_of(x, y, z, inset)
         });
     }
@@ -323,7 +325,7 @@ impl Projector {
     /// branches so that loops over voxels vectorise.
     #[inline]
     pub(crate) fn footprint_at(&self, base: &[f32; 3], i: f32) -> (Footprint, f32) {
-        let [x, y, z] = [0, 1, 2].map(|a| base[a] + self.inc[a] * i);
+        let [x, y, z] = self.along_row_at(base, i);
         (self.footprint_of(x, y, z), z)
     }
 
