@@ -414,9 +414,10 @@ const BLOCK: usize = 8;
 /// What one block of a layer decided.
 struct BlockResult {
     kept: Vec<([usize; 3], [u8; 3])>,
-    /// The footprints the kept voxels claim, with their views. Only views that could still
-    /// see the block are listed: in the others every pixel under the block is already
-    /// claimed or background, so a claim there would change nothing.
+    /// The footprints the kept voxels claim, with their views. Only views where a claim
+    /// can change something are listed: with no inset, those where the voxel's footprint
+    /// still had a pixel open when it was tested; with one, those that could still see the
+    /// block (in the others every pixel under the block is already resolved).
     claims: Vec<(u32, Footprint)>,
     rejected: usize,
     tested: usize,
@@ -438,6 +439,11 @@ struct BlockScratch {
     /// Per voxel of the block, with [`ColoringParams::behind_hull`]: its hull normal and
     /// its centre, once it has met an open view.
     normals: Vec<Option<([i32; 3], Point3<f64>)>>,
+    /// Per voxel of the block, `words` words: bit `a` set where the voxel's footprint in the
+    /// block's active view `a` still had a pixel open when it was tested. A kept voxel claims
+    /// only there: elsewhere every pixel of its footprint is already resolved.
+    open: Vec<u64>,
+    words: usize,
 }
 
 impl BlockScratch {
@@ -458,6 +464,8 @@ impl BlockScratch {
             counts: vec![0; cells],
             decide: Vec::with_capacity(n),
             normals: vec![None; cells],
+            open: vec![0; cells * n.div_ceil(64)],
+            words: n.div_ceil(64),
         }
     }
 }
@@ -697,6 +705,8 @@ fn decide_block(
     scratch.silhouette = silhouette;
     out.rejected = size - alive;
     scratch.counts[..size].fill(0);
+    let words = scratch.words;
+    scratch.open[..size * words].fill(0);
     let width = i1 - i0;
     if hull.is_some() {
         scratch.normals[..size].fill(None);
@@ -731,6 +741,7 @@ fn decide_block(
             if fp.is_empty() || bits[v].all_resolved(fp) {
                 continue;
             }
+            scratch.open[x * words + a / 64] |= 1 << (a % 64);
             if let Some((hull, cosine)) = hull {
                 // The voxel's hull normal, on its first open view.
                 let (normal, centre) = *scratch.normals[x].get_or_insert_with(|| {
@@ -769,8 +780,14 @@ fn decide_block(
             &mut azimuths[x * n..(x + 1) * n],
         ) {
             out.kept.push(([i, j, layer.k], c));
-            // It claims its whole footprint in every view that could still see the block.
-            for &v in &scratch.active {
+            // It claims its whole footprints. Without an inset it was tested on them, so
+            // only the views where one still had a pixel open; with one, in every view
+            // that could still see the block.
+            let open = &scratch.open[x * words..(x + 1) * words];
+            for (a, &v) in scratch.active.iter().enumerate() {
+                if params.sample_inset <= 0.0 && open[a / 64] & (1 << (a % 64)) == 0 {
+                    continue;
+                }
                 let fp = scratch
                     .footprints
                     .whole_of(&projectors[v], v, x, (i, j), layer);
