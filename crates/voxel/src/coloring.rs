@@ -175,21 +175,25 @@ pub fn voxel_coloring(
     let (bx, by) = (nx.div_ceil(BLOCK), ny.div_ceil(BLOCK));
     // Per view: the footprints the layer's kept voxels claim there.
     let mut claims: Vec<Vec<Footprint>> = vec![Vec::new(); n];
+    // Every view's row bases of the layer being decided, shared by its blocks; the top
+    // layer's now, each next one's as the layer above claims its pixels.
     let mut bases = vec![[0f32; 3]; n * ny];
+    let row_bases = |rows: &mut [[f32; 3]], p: &Projector, k: usize| {
+        for (j, b) in rows.iter_mut().enumerate() {
+            *b = p.row_base(grid, j, k);
+        }
+    };
+    if nz > 0 {
+        bases
+            .par_chunks_mut(ny)
+            .zip(&projectors)
+            .for_each(|(rows, p)| row_bases(rows, p, nz - 1));
+    }
     // Per block, per voxel column, per view: the view's azimuth from the column, computed
     // when a voxel of the column is first decided (see `decide`); a block's are allocated
     // when it first decides a voxel, which most blocks never do.
     let mut azimuths = vec![Vec::new(); bx * by];
     for k in (0..nz).rev() {
-        // Every view's row bases of the layer, shared by its blocks.
-        bases
-            .par_chunks_mut(ny)
-            .zip(&projectors)
-            .for_each(|(rows, p)| {
-                for (j, b) in rows.iter_mut().enumerate() {
-                    *b = p.row_base(grid, j, k);
-                }
-            });
         let layer = Layer {
             k,
             ny,
@@ -235,12 +239,17 @@ pub fn voxel_coloring(
                 claims[v as usize].push(fp);
             }
         }
-        // Claim the layer's footprints, views in parallel.
+        // Claim the layer's footprints and project the next layer's row bases, views in
+        // parallel.
         bits.par_iter_mut()
             .zip(claims.par_iter_mut())
-            .for_each(|(b, fps)| {
+            .zip(bases.par_chunks_mut(ny).zip(&projectors))
+            .for_each(|((b, fps), (rows, p))| {
                 for fp in fps.drain(..) {
                     b.claim(&fp);
+                }
+                if k > 0 {
+                    row_bases(rows, p, k - 1);
                 }
             });
     }
