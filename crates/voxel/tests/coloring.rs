@@ -105,6 +105,22 @@ fn fast_path_equals_the_reference_voxel_for_voxel() -> TestResult {
     Ok(())
 }
 
+/// More than 64 views: the fast path's per-voxel flags of the views a voxel saw open (which
+/// decide where a kept voxel claims) span more than one word.
+#[test]
+fn fast_path_equals_the_reference_with_more_than_64_views() -> TestResult {
+    let scene = catalogue::head()?;
+    let cap = capture(&scene, 72)?;
+    let grid = VoxelGrid::with_resolution(scene.bounds(), 32)?;
+    fast_equals_reference(
+        &grid,
+        &cap.views(true),
+        &ColoringParams::default(),
+        "72 views",
+    )?;
+    Ok(())
+}
+
 /// The sampled pixels inset into the footprints (`ColoringParams::sample_inset`): the fast
 /// path equals the reference at any inset, and the inset changes what is judged.
 #[test]
