@@ -84,6 +84,13 @@ impl ColoringParams {
         }
         Ok(())
     }
+
+    /// [`ColoringParams::sample_inset`] when it is one, `None` when the voxels are judged by
+    /// their whole footprints: whether the fast kernel's sampled footprints differ from the
+    /// whole ones.
+    fn inset(&self) -> Option<f32> {
+        (self.sample_inset > 0.0).then_some(self.sample_inset)
+    }
 }
 
 /// Counts from one run of a kernel.
@@ -532,7 +539,7 @@ impl BlockFootprints {
     }
 
     /// The footprints in view `v` of the voxels `[i0..i1) x [j0..j1)` of layer `k` (inset
-    /// by `inset` pixels when it is `Some`), computed on first use within the block for the
+    /// by `inset` pixels when it is `Some`, as [`ColoringParams::inset`] gives it), computed on first use within the block for the
     /// rows that hold a voxel still `alive` (flags row-major, as the footprints are). The
     /// other rows keep stale values: ask only for voxels alive at the first use (they are
     /// alive then).
@@ -548,7 +555,6 @@ impl BlockFootprints {
         inset: Option<f32>,
     ) -> &[Footprint] {
         let cells = BLOCK * BLOCK;
-        let inset = inset.filter(|&inset| inset > 0.0);
         let cache = match inset {
             None => &mut self.whole,
             Some(_) => &mut self.sampled,
@@ -734,7 +740,7 @@ fn decide_block(
             (j0, j1),
             layer,
             &scratch.alive,
-            Some(params.sample_inset),
+            params.inset(),
         );
         for (x, fp) in sampled[..size].iter().enumerate() {
             if !scratch.alive[x] {
@@ -794,7 +800,7 @@ fn decide_block(
             // that could still see the block.
             let open = &scratch.open[x * words..(x + 1) * words];
             for (a, &v) in scratch.active.iter().enumerate() {
-                if params.sample_inset <= 0.0 && open[a / 64] & (1 << (a % 64)) == 0 {
+                if params.inset().is_none() && open[a / 64] & (1 << (a % 64)) == 0 {
                     continue;
                 }
                 let fp = scratch
