@@ -5,9 +5,9 @@
 //! the ground-truth masks are used as silhouettes. Environment variables change the
 //! defaults: `THRESH` and `WINDOW` (the angular criterion), `CTHRESH` (the classic one),
 //! `MINV` (`min_views`), `INSET` (`sample_inset`, pixels) and `BEHIND_HULL` (a cosine, or
-//! `off` to ask every view); `PANS`, a
-//! comma-separated list of pan angles in degrees, replaces the uniform views (for instance
-//! the `pans_deg` of an `aibr eval --json` checkpoint; `VIEWS` is then ignored).
+//! `off` to ask every view); `PANS`, a comma-separated list of pan angles in degrees,
+//! replaces the uniform views (for instance the `pans_deg` of an `aibr eval --json`
+//! checkpoint; `VIEWS` is then ignored).
 
 mod common;
 
