@@ -7,13 +7,16 @@
 //! `MINV` (`min_views`), `INSET` (`sample_inset`, pixels) and `BEHIND_HULL` (a cosine, or
 //! `off` to ask every view); `PANS`, a comma-separated list of pan angles in degrees,
 //! replaces the uniform views (for instance the `pans_deg` of an `aibr eval --json`
-//! checkpoint; `VIEWS` is then ignored).
+//! checkpoint; `VIEWS` is then ignored). `REFINE=1` runs [`aibr_voxel::refine_tops`] with its
+//! defaults on each model before scoring it.
 
 mod common;
 
 use aibr_scene::catalogue;
 use aibr_voxel::metrics::geometry_score;
-use aibr_voxel::{ColoringParams, Criterion, VoxelGrid, voxel_coloring};
+use aibr_voxel::{
+    ColoringParams, Criterion, TopRefinement, VoxelGrid, refine_tops, voxel_coloring,
+};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -28,9 +31,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect()
     };
     println!(
-        "| scene | criterion | accuracy (voxels, 90%) | completeness (1.5 voxels) | surface voxels | coloring (ms) |"
+        "| scene | criterion | accuracy (voxels, 90%) | completeness (1.5 voxels) | surface voxels | coloring (ms) | tops refined (ms) |"
     );
-    println!("|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|");
+    let refine = std::env::var("REFINE").is_ok_and(|v| v == "1");
     for name in &names {
         let scene = catalogue::by_name(name)?;
         let pans = common::pans(&scene, n_views)?;
@@ -66,11 +70,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 params.sample_inset = inset as f32;
             }
             let start = std::time::Instant::now();
-            let out = voxel_coloring(&grid, &views, &params)?;
+            let mut model = voxel_coloring(&grid, &views, &params)?.model;
             let ms = start.elapsed().as_secs_f64() * 1e3;
-            let score = geometry_score(&out.model, &reference.exposed, &reference.visible);
+            let refined = if refine {
+                let start = std::time::Instant::now();
+                refine_tops(&mut model, &views, &TopRefinement::default())?;
+                format!("{:.0}", start.elapsed().as_secs_f64() * 1e3)
+            } else {
+                "-".to_string()
+            };
+            let score = geometry_score(&model, &reference.exposed, &reference.visible);
             println!(
-                "| {name} | {label} | {:.2} | {:.1}% | {} | {ms:.0} |",
+                "| {name} | {label} | {:.2} | {:.1}% | {} | {ms:.0} | {refined} |",
                 score.accuracy_voxels,
                 100.0 * score.completeness,
                 score.surface_voxels

@@ -269,14 +269,7 @@ pub fn voxel_coloring(
 /// Removes the voxels no view sees (see [`ColoringParams::visible_only`]).
 fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut KernelStats) {
     let grid = *model.grid();
-    let list = VoxelList::new(
-        model
-            .occupied
-            .indexed_iter()
-            .filter(|(_, o)| **o)
-            .map(|((k, j, i), _)| [i, j, k])
-            .collect(),
-    );
+    let list = VoxelList::occupied(model);
     let count = list.voxels.len();
     let seen = projectors
         .par_iter()
@@ -307,9 +300,9 @@ fn keep_visible(model: &mut VoxelModel, projectors: &[Projector], stats: &mut Ke
 
 /// Voxels listed row by row, as the z-buffers take them: each view projects each row's
 /// base once.
-struct VoxelList {
+pub(crate) struct VoxelList {
     /// The voxels `[i, j, k]`, row by row.
-    voxels: Vec<[usize; 3]>,
+    pub(crate) voxels: Vec<[usize; 3]>,
     /// The rows `(j, k)` that hold listed voxels.
     rows: Vec<(usize, usize)>,
     /// Per voxel: its row in `rows`.
@@ -317,7 +310,20 @@ struct VoxelList {
 }
 
 impl VoxelList {
-    fn new(voxels: Vec<[usize; 3]>) -> Self {
+    /// The occupied voxels of `model`, layer by layer from the bottom, row by row.
+    pub(crate) fn occupied(model: &VoxelModel) -> Self {
+        VoxelList::new(
+            model
+                .occupied
+                .indexed_iter()
+                .filter(|(_, o)| **o)
+                .map(|((k, j, i), _)| [i, j, k])
+                .collect(),
+        )
+    }
+
+    /// The list of `voxels`, which must come row by row (all of one row `(j, k)` together).
+    pub(crate) fn new(voxels: Vec<[usize; 3]>) -> Self {
         let mut rows: Vec<(usize, usize)> = Vec::new();
         let mut row_of = Vec::with_capacity(voxels.len());
         for &[_, j, k] in &voxels {
@@ -336,7 +342,7 @@ impl VoxelList {
 
 /// One view's z-buffer over a list of voxels, its buffers kept from view to view.
 #[derive(Default)]
-struct ZBuffer {
+pub(crate) struct ZBuffer {
     /// Per row of the list: its base in this view.
     bases: Vec<[f32; 3]>,
     /// Per voxel: the homogeneous projection of its centre (`h[2]`, the depth).
@@ -362,6 +368,22 @@ impl ZBuffer {
         list: &VoxelList,
         seen: &mut [bool],
     ) {
+        self.render(grid, proj, list);
+        for (n, s) in seen.iter_mut().enumerate() {
+            *s |= self.sees(n);
+        }
+    }
+
+    /// True when voxel `n` of the list last rendered is nearest in its view at no less than a
+    /// quarter of its footprint: the view sees it.
+    pub(crate) fn sees(&self, n: usize) -> bool {
+        let fp = &self.footprints[n];
+        !fp.is_empty() && 4 * self.wins[n] >= fp.area()
+    }
+
+    /// Z-buffers the voxels of `list` in the view of `proj`: afterwards
+    /// [`ZBuffer::sees`] answers for each of them.
+    pub(crate) fn render(&mut self, grid: &VoxelGrid, proj: &Projector, list: &VoxelList) {
         self.bases.clear();
         self.bases
             .extend(list.rows.iter().map(|&(j, k)| proj.row_base(grid, j, k)));
@@ -385,6 +407,8 @@ impl ZBuffer {
                 .zip(depths)
                 .map(|((&x, &y), &z)| proj.footprint_of(x, y, z)),
         );
+        self.wins.clear();
+        self.wins.resize(fps.len(), 0);
         // The z-buffer covers only the footprints' bounding box.
         let (mut u0, mut u1, mut v0, mut v1) = (u32::MAX, 0, u32::MAX, 0);
         for fp in fps.iter().filter(|fp| !fp.is_empty()) {
@@ -411,15 +435,10 @@ impl ZBuffer {
                 }
             }
         }
-        self.wins.clear();
-        self.wins.resize(fps.len(), 0);
         for &k in &self.nearest {
             if k != u64::MAX {
                 self.wins[(k & u64::from(u32::MAX)) as usize] += 1;
             }
-        }
-        for ((s, fp), &w) in seen.iter_mut().zip(fps.iter()).zip(&self.wins) {
-            *s |= !fp.is_empty() && 4 * w >= fp.area();
         }
     }
 }

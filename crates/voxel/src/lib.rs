@@ -9,6 +9,9 @@
 //!   boundary from behind it left out: [`ColoringParams::behind_hull`]), parallel within
 //!   each layer and identical at any thread count to its scalar reference
 //!   [`voxel_coloring_reference`];
+//! - [`refine_tops`], an optional pass after voxel coloring: each upward-facing surface voxel
+//!   moves down its column to where its views' colours agree best, which a sweep's threshold
+//!   cannot find (a voxel floating a layer over a textured top passes it);
 //! - [`space_carving`] (Kutulakos and Seitz), multi-sweep, for rigs whose cameras are not all
 //!   above the object;
 //! - [`planar_faces`]: a model's large flat faces, whose planes a planner can aim views at
@@ -60,6 +63,7 @@ pub mod kernel;
 pub mod metrics;
 pub mod ply;
 pub mod raycast;
+pub mod refine;
 
 pub use carving::{CarvingParams, space_carving, visual_hull};
 pub use coloring::{
@@ -72,3 +76,4 @@ pub use grid::{VoxelGrid, VoxelModel};
 pub use kernel::{Criterion, View};
 pub use ply::{PlyOptions, write_ply};
 pub use raycast::{DepthMap, SPLAT_MARGIN_VOXELS, VoxelHit, is_visible, splat_depths};
+pub use refine::{RefineStats, TopRefinement, refine_tops};

@@ -1,0 +1,377 @@
+//! Lowering a model's upward-facing surface to where its views agree best
+//! ([`refine_tops`]), an optional pass after voxel coloring.
+//!
+//! A single sweep keeps the first voxel down each ray that its views find consistent. Over a
+//! horizontal textured face seen from the ring's elevation, a voxel a layer or two above the
+//! face still passes: views close in angle see it against nearly the same texture, and the
+//! true voxel below is then hidden by it. On `head` that fattens the pedestal top by one or
+//! two layers and fills the corner under the neck with a fillet up to ten layers high
+//! (`docs/voxel.md`). A threshold cannot tell the two apart (the floating voxel is
+//! consistent); a comparison down the column can: every view sees the true surface at the
+//! same point, while a point above it is seen at points spread over a circle whose radius
+//! grows with the height, so the views' colours agree best at the true height.
+//!
+//! For every occupied voxel whose upper neighbour is empty, the views that see it (where it
+//! is the nearest voxel at no less than a quarter of its footprint, as in voxel coloring's
+//! [`crate::ColoringParams::visible_only`]) are asked for the mean colour of the
+//! footprint of it and of each of the `max_depth` voxels below it. Each candidate gets the
+//! robust spread of those colours (for each view the median of its RMS colour differences to
+//! the other views, then the median of that over the views, so a highlight in fewer than half
+//! of them does not count); the voxel moves down to the candidate with the smallest spread
+//! when that is clearly smaller than its own, by [`TopRefinement::ratio`] and
+//! [`TopRefinement::margin`] both. The voxels from the top down to just above the candidate
+//! are cleared and the candidate takes the mean colour. Every decision reads the model as it
+//! came in, so the result does not depend on the order or the thread count.
+
+use rayon::prelude::*;
+
+use crate::coloring::{VoxelList, ZBuffer};
+use crate::error::{Error, Result};
+use crate::grid::{VoxelGrid, VoxelModel};
+use crate::kernel::{Footprint, Pixels, Projector, View, validate_views};
+
+/// Parameters of [`refine_tops`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TopRefinement {
+    /// How many voxels below a top voxel its surface may move (default 10).
+    pub max_depth: usize,
+    /// A move needs the candidate's spread at most this share of the top's (default 0.7).
+    pub ratio: f32,
+    /// ... and at least this many grey levels below it (default 10): on flat colour the
+    /// spreads are sensor noise, and the smallest of them says nothing about the height.
+    pub margin: f32,
+    /// A top voxel is judged only when at least this many views see it (default 4).
+    pub min_views: usize,
+}
+
+impl Default for TopRefinement {
+    fn default() -> Self {
+        TopRefinement {
+            max_depth: 10,
+            ratio: 0.7,
+            margin: 10.0,
+            min_views: 4,
+        }
+    }
+}
+
+impl TopRefinement {
+    /// A [`TopRefinement::ratio`] outside `[0, 1]`, a negative [`TopRefinement::margin`] (or
+    /// either NaN), or a [`TopRefinement::min_views`] under 2 is [`Error::InvalidParameter`].
+    pub fn validate(&self) -> Result<()> {
+        if !(0.0..=1.0).contains(&self.ratio) {
+            return Err(Error::InvalidParameter {
+                name: "ratio",
+                value: f64::from(self.ratio),
+                reason: "a share of the top's spread must lie in [0, 1]",
+            });
+        }
+        if !(self.margin >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "margin",
+                value: f64::from(self.margin),
+                reason: "grey levels must not be negative",
+            });
+        }
+        if self.min_views < 2 {
+            return Err(Error::InvalidParameter {
+                name: "min_views",
+                value: self.min_views as f64,
+                reason: "a spread needs at least two views",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Counts from one [`refine_tops`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RefineStats {
+    /// Occupied voxels whose upper neighbour is empty or outside the grid.
+    pub tops: usize,
+    /// Tops seen by at least [`TopRefinement::min_views`] views, which were judged.
+    pub judged: usize,
+    /// Tops moved down.
+    pub moved: usize,
+    /// Voxels cleared above the moved tops' new places (the sum of the moves' depths).
+    pub cleared: usize,
+}
+
+/// One top's decision: move voxel `top` down by `depth` and give its new place `colour`.
+#[derive(Debug, Clone, Copy)]
+struct Move {
+    top: [usize; 3],
+    depth: usize,
+    colour: [u8; 3],
+}
+
+/// Moves the model's upward-facing surface down to where its views agree best (module
+/// docs). `views` are the views the model was made from (pinhole, images the cameras' size;
+/// masks, where given, limit the footprints to foreground pixels).
+///
+/// ```
+/// use aibr_camera::Angle;
+/// use aibr_scene::{RenderOptions, catalogue};
+/// use aibr_voxel::{ColoringParams, TopRefinement, View, VoxelGrid, refine_tops, voxel_coloring};
+///
+/// let scene = catalogue::lambertian()?;
+/// let shots = scene.shoot(&scene.rig.uniform_pans(12), &RenderOptions::default())?;
+/// let views: Vec<View<'_>> = shots
+///     .iter()
+///     .map(|s| View { camera: &s.camera, image: &s.image, mask: Some(&s.frame.mask) })
+///     .collect();
+/// let grid = VoxelGrid::with_resolution(scene.bounds(), 32)?;
+/// let mut model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
+/// let stats = refine_tops(&mut model, &views, &TopRefinement::default())?;
+/// assert!(stats.judged > 0 && stats.moved <= stats.judged);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn refine_tops(
+    model: &mut VoxelModel,
+    views: &[View<'_>],
+    params: &TopRefinement,
+) -> Result<RefineStats> {
+    params.validate()?;
+    validate_views(views, params.min_views)?;
+    let grid = *model.grid();
+    let nz = grid.dims()[2];
+    let list = VoxelList::occupied(model);
+    // Indices into `list` of the tops.
+    let tops: Vec<usize> = list
+        .voxels
+        .iter()
+        .enumerate()
+        .filter(|&(_, &[i, j, k])| k + 1 == nz || !model.is_occupied([i, j, k + 1]))
+        .map(|(n, _)| n)
+        .collect();
+    let projectors: Vec<Projector> = views
+        .iter()
+        .map(|v| Projector::new(v.camera, &grid))
+        .collect();
+    let pixels: Vec<Pixels<'_>> = views.iter().map(Pixels::of).collect();
+    // Per view, per top: whether the view sees it.
+    let sees: Vec<Vec<bool>> = projectors
+        .par_iter()
+        .map_init(ZBuffer::default, |z, proj| {
+            z.render(&grid, proj, &list);
+            tops.iter().map(|&n| z.sees(n)).collect()
+        })
+        .collect();
+    let judged = tops
+        .par_iter()
+        .enumerate()
+        .map_init(Scratch::default, |scratch, (t, &n)| {
+            scratch.seeing.clear();
+            scratch
+                .seeing
+                .extend((0..views.len()).filter(|&v| sees[v][t]));
+            if scratch.seeing.len() < params.min_views {
+                return None;
+            }
+            let top = list.voxels[n];
+            Some(judge(top, &projectors, &pixels, &grid, params, scratch))
+        })
+        .collect::<Vec<_>>();
+    let mut stats = RefineStats {
+        tops: tops.len(),
+        judged: judged.iter().filter(|j| j.is_some()).count(),
+        ..RefineStats::default()
+    };
+    let moves: Vec<Move> = judged.into_iter().flatten().flatten().collect();
+    for m in &moves {
+        let [i, j, k] = m.top;
+        for t in 0..m.depth {
+            model.clear([i, j, k - t]);
+        }
+        stats.cleared += m.depth;
+    }
+    for m in &moves {
+        let [i, j, k] = m.top;
+        model.set([i, j, k - m.depth], m.colour);
+    }
+    stats.moved = moves.len();
+    Ok(stats)
+}
+
+/// Buffers reused from one top to the next on a thread.
+#[derive(Default)]
+struct Scratch {
+    seeing: Vec<usize>,
+    colours: Vec<[f32; 3]>,
+    /// `colours.len()` squared: the squared differences of every pair.
+    squares: Vec<f32>,
+    differences: Vec<f32>,
+    per_view: Vec<f32>,
+}
+
+/// The decision for one top seen by the views of `scratch.seeing`: `Some` move when a candidate below it is
+/// clearly more consistent, `None` to leave it.
+fn judge(
+    top: [usize; 3],
+    projectors: &[Projector],
+    pixels: &[Pixels<'_>],
+    grid: &VoxelGrid,
+    params: &TopRefinement,
+    scratch: &mut Scratch,
+) -> Option<Move> {
+    let [i, j, k] = top;
+    let mut own = f32::INFINITY;
+    let mut best: Option<(usize, f32, [u8; 3])> = None;
+    for depth in 0..=params.max_depth.min(k) {
+        let centre = grid.centre([i, j, k - depth]);
+        scratch.colours.clear();
+        for &n in &scratch.seeing {
+            let h = projectors[n].project_point(&centre);
+            if let Some(fp) = projectors[n].footprint(h) {
+                if let Some(c) = mean_colour(&pixels[n], &fp) {
+                    scratch.colours.push(c);
+                }
+            }
+        }
+        if scratch.colours.len() < params.min_views {
+            if depth == 0 {
+                return None;
+            }
+            continue;
+        }
+        let spread = robust_spread(scratch);
+        if depth == 0 {
+            own = spread;
+        } else if best.is_none_or(|(_, s, _)| spread < s) {
+            best = Some((depth, spread, mean_of(&scratch.colours)));
+        }
+    }
+    let (depth, spread, colour) = best?;
+    (spread <= params.ratio * own && own - spread >= params.margin).then_some(Move {
+        top,
+        depth,
+        colour,
+    })
+}
+
+/// Mean colour of the footprint's pixels (its foreground ones, with a mask); `None` when
+/// there are none.
+fn mean_colour(px: &Pixels<'_>, fp: &Footprint) -> Option<[f32; 3]> {
+    let mut sum = [0u32; 3];
+    let mut n = 0u32;
+    for v in fp.v0..=fp.v1 {
+        let row = v as usize * px.width;
+        for u in fp.u0..=fp.u1 {
+            let at = row + u as usize;
+            if px.mask.is_some_and(|m| m[at] == 0) {
+                continue;
+            }
+            for (s, &c) in sum.iter_mut().zip(&px.rgb[3 * at..3 * at + 3]) {
+                *s += u32::from(c);
+            }
+            n += 1;
+        }
+    }
+    (n > 0).then(|| sum.map(|s| s as f32 / n as f32))
+}
+
+/// The mean of `colours`, rounded to bytes.
+fn mean_of(colours: &[[f32; 3]]) -> [u8; 3] {
+    let n = colours.len().max(1) as f32;
+    [0, 1, 2].map(|c| (colours.iter().map(|x| x[c]).sum::<f32>() / n).round() as u8)
+}
+
+/// The robust spread of `scratch.colours` (at least two): for each colour the median of its
+/// RMS differences to the others, then the median of those (upper medians). The medians are
+/// taken over squared differences, whose order is the same, and one root is taken at the end.
+fn robust_spread(scratch: &mut Scratch) -> f32 {
+    let Scratch {
+        colours,
+        squares,
+        differences,
+        per_view,
+        ..
+    } = scratch;
+    let n = colours.len();
+    squares.clear();
+    squares.resize(n * n, 0.0);
+    for a in 0..n {
+        for b in a + 1..n {
+            let d = squared_difference(&colours[a], &colours[b]);
+            squares[a * n + b] = d;
+            squares[b * n + a] = d;
+        }
+    }
+    per_view.clear();
+    for a in 0..n {
+        differences.clear();
+        let row = &squares[a * n..(a + 1) * n];
+        differences.extend_from_slice(&row[..a]);
+        differences.extend_from_slice(&row[a + 1..]);
+        per_view.push(upper_median(differences));
+    }
+    (upper_median(per_view) / 3.0).sqrt()
+}
+
+/// The squared colour difference summed over R, G and B.
+fn squared_difference(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+/// The element at `len / 2` in sorted order (reorders `values`); 0 for none.
+fn upper_median(values: &mut [f32]) -> f32 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f32::total_cmp).1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_spread_ignores_a_minority_of_outliers() {
+        let mut scratch = Scratch {
+            colours: vec![[100.0; 3], [102.0; 3], [98.0; 3], [101.0; 3], [250.0; 3]],
+            ..Scratch::default()
+        };
+        // The views' medians are 2, 4, 4, 3 and 150 (the outlier's); their median is 4.
+        assert_eq!(robust_spread(&mut scratch), 4.0);
+        scratch.colours = vec![[10.0; 3], [100.0; 3], [200.0; 3], [50.0; 3], [150.0; 3]];
+        assert!(robust_spread(&mut scratch) >= 50.0);
+    }
+
+    #[test]
+    fn upper_median_takes_the_middle_or_the_upper_of_two() {
+        assert_eq!(upper_median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(upper_median(&mut [4.0, 1.0, 3.0, 2.0]), 3.0);
+        assert_eq!(upper_median(&mut []), 0.0);
+    }
+
+    #[test]
+    fn parameters_out_of_their_domain_are_refused() {
+        let bad = [
+            TopRefinement {
+                ratio: 1.5,
+                ..TopRefinement::default()
+            },
+            TopRefinement {
+                ratio: f32::NAN,
+                ..TopRefinement::default()
+            },
+            TopRefinement {
+                margin: -1.0,
+                ..TopRefinement::default()
+            },
+            TopRefinement {
+                min_views: 1,
+                ..TopRefinement::default()
+            },
+        ];
+        for p in bad {
+            assert!(
+                matches!(p.validate(), Err(Error::InvalidParameter { .. })),
+                "{p:?}"
+            );
+        }
+        assert!(TopRefinement::default().validate().is_ok());
+    }
+}
