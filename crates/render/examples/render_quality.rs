@@ -10,7 +10,8 @@
 //! `CRITERION=classic:T` or `CRITERION=angular:T:W` (grey levels, degrees) replaces voxel
 //! coloring's default criterion.
 //! `REFINE=0` turns the renderer's depth refinement off, `REFINE=front:back:steps:radius`
-//! sets it (voxels, voxels, depths, pixels).
+//! sets it (voxels, voxels, depths, pixels). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the
+//! model first.
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -59,6 +60,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ..ColoringParams::default()
             };
             let mut model = voxel_coloring(&grid, &views, &coloring)?.model;
+            if std::env::var("TOPS").is_ok_and(|v| v == "1") {
+                aibr_voxel::refine_tops(&mut model, &views, &Default::default())?;
+            }
             if std::env::var("TRUEMODEL").is_ok() {
                 // Diagnostic: the true scene voxelised (centre inside an object).
                 model = aibr_voxel::VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0));

@@ -8,7 +8,8 @@
 //! `off` to ask every view); `PANS`, a comma-separated list of pan angles in degrees,
 //! replaces the uniform views (for instance the `pans_deg` of an `aibr eval --json`
 //! checkpoint; `VIEWS` is then ignored). `REFINE=1` runs [`aibr_voxel::refine_tops`] with its
-//! defaults on each model before scoring it.
+//! defaults on each model before scoring it, `REFINE=MARGIN:RATIO:DEPTH` with those
+//! [`aibr_voxel::TopRefinement`] fields.
 
 mod common;
 
@@ -34,7 +35,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| scene | criterion | accuracy (voxels, 90%) | completeness (1.5 voxels) | surface voxels | coloring (ms) | tops refined (ms) |"
     );
     println!("|---|---|---|---|---|---|---|");
-    let refine = std::env::var("REFINE").is_ok_and(|v| v == "1");
+    let refine = match std::env::var("REFINE") {
+        Err(_) => None,
+        Ok(spec) => Some(refinement(&spec)?),
+    };
     for name in &names {
         let scene = catalogue::by_name(name)?;
         let pans = common::pans(&scene, n_views)?;
@@ -72,9 +76,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let start = std::time::Instant::now();
             let mut model = voxel_coloring(&grid, &views, &params)?.model;
             let ms = start.elapsed().as_secs_f64() * 1e3;
-            let refined = if refine {
+            let refined = if let Some(refine) = &refine {
                 let start = std::time::Instant::now();
-                refine_tops(&mut model, &views, &TopRefinement::default())?;
+                refine_tops(&mut model, &views, refine)?;
                 format!("{:.0}", start.elapsed().as_secs_f64() * 1e3)
             } else {
                 "-".to_string()
@@ -89,4 +93,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
+}
+
+/// `1` (the defaults) or `MARGIN:RATIO:DEPTH`.
+fn refinement(spec: &str) -> Result<TopRefinement, String> {
+    let bad = || format!("REFINE={spec}: expected 1 or MARGIN:RATIO:DEPTH");
+    let parts: Vec<&str> = spec.split(':').collect();
+    match parts.as_slice() {
+        ["1"] => Ok(TopRefinement::default()),
+        [m, r, d] => Ok(TopRefinement {
+            margin: m.parse().map_err(|_| bad())?,
+            ratio: r.parse().map_err(|_| bad())?,
+            max_depth: d.parse().map_err(|_| bad())?,
+            ..TopRefinement::default()
+        }),
+        _ => Err(bad()),
+    }
 }
