@@ -51,8 +51,8 @@ pub use aibr_voxel as voxel;
 
 pub use capture::{
     CaptureParams, CaptureReport, Progress, StageTimings, Strategy, capture, estimate_volume,
-    pair_scores, reconstruct, reconstruct_loaded, reconstruct_views, render_loaded, render_session,
-    renderer_for, renderer_with, uniform_pans,
+    pair_scores, reconstruct, reconstruct_loaded, reconstruct_refined, reconstruct_views,
+    render_loaded, render_session, renderer_for, renderer_with, uniform_pans,
 };
 pub use error::{Error, Result};
 pub use eval::{

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use aibr::camera::Angle;
-use aibr::voxel::{ColoringParams, Criterion, PlyOptions, write_ply};
+use aibr::voxel::{ColoringParams, Criterion, PlyOptions, TopRefinement, write_ply};
 use aibr::{CaptureParams, EvalModel, Progress, Session, SimRig, Strategy, write_atomic};
 use anyhow::{Context, Result, bail};
 
@@ -354,6 +354,13 @@ struct ReconstructArgs {
     /// (`docs/voxel.md`, "Sampled pixels").
     #[arg(long, value_name = "PIXELS", value_parser = parse_sample_inset)]
     sample_inset: Option<f32>,
+    /// After the reconstruction, move the upward-facing surface down to where the views
+    /// agree best (`aibr_voxel::refine_tops`, its defaults): on the synthetic `head`, 2.99 ->
+    /// 1.23 voxels of accuracy at 128^3 from 48 views. For the geometry only: it leaves gaps
+    /// where the sweep's fillets hid the surface, which cost novel views, and `aibr render`
+    /// does not use it (`docs/voxel.md`, "Refining the tops").
+    #[arg(long)]
+    refine_tops: bool,
     /// Print a machine-readable summary on standard output.
     #[arg(long)]
     json: bool,
@@ -1529,7 +1536,20 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
     if let Some(inset) = a.sample_inset {
         coloring.sample_inset = inset;
     }
-    let (rec, algorithm) = aibr::reconstruct(&session, a.grid, &coloring)?;
+    let views = session.load_views()?;
+    let (rec, algorithm, refined) = if a.refine_tops {
+        let (rec, algorithm, stats) = aibr::reconstruct_refined(
+            &session,
+            &views,
+            a.grid,
+            &coloring,
+            &TopRefinement::default(),
+        )?;
+        (rec, algorithm, Some(stats))
+    } else {
+        let (rec, algorithm) = aibr::reconstruct_loaded(&session, &views, a.grid, &coloring)?;
+        (rec, algorithm, None)
+    };
     let coloring_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut bytes = Vec::new();
     write_ply(
@@ -1551,6 +1571,13 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
                 "views": session.file().views.len(),
                 "grid": rec.model.grid().dims(),
                 "voxels": rec.model.occupied_count(),
+                "refine_tops": refined.map(|r| serde_json::json!({
+                    "tops": r.tops,
+                    "judged": r.judged,
+                    "moved": r.moved,
+                    "lone": r.lone,
+                    "cleared": r.cleared,
+                })),
                 "timings_ms": {"coloring_ms": coloring_ms},
             }))?
         );
@@ -1561,6 +1588,12 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
             session.file().views.len(),
             path.display()
         );
+        if let Some(r) = refined {
+            println!(
+                "tops refined: {} of {} judged tops moved down, {} voxels cleared",
+                r.moved, r.judged, r.cleared
+            );
+        }
     }
     Ok(())
 }

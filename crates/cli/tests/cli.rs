@@ -202,6 +202,20 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert!(refused(&reconstruct(&["--sample-inset", "9"])?, "`9`"));
     assert!(refused(&reconstruct(&["--sample-inset", "NaN"])?, "`NaN`"));
     assert_eq!(std::fs::read(dir.join("model.ply"))?, before);
+    // The tops refined: the same sweep, then tops moved down, each clearing at least the
+    // voxel it stood in and setting only its new place, so the model loses voxels; without
+    // the flag no summary.
+    assert!(summary["refine_tops"].is_null());
+    let refined = summary_with(&["--refine-tops"])?;
+    let count = |key: &str| refined["refine_tops"][key].as_u64().unwrap_or(0);
+    assert!(
+        count("judged") > 0 && count("judged") <= count("tops"),
+        "{refined}"
+    );
+    assert!(count("moved") <= count("judged") && count("cleared") >= count("moved"));
+    let net = refined["voxels"].as_i64().unwrap_or(0) - summary["voxels"].as_i64().unwrap_or(0);
+    assert!(count("moved") > 0, "{refined}");
+    assert!(-(count("cleared") as i64) <= net && net < 0, "{refined}");
 
     // `aibr render` of the session with `args`, writing to `to`.
     let render = |args: &[&str], to: &Path| {
