@@ -369,16 +369,15 @@ impl ZBuffer {
         seen: &mut [bool],
     ) {
         self.render(grid, proj, list);
-        for (n, s) in seen.iter_mut().enumerate() {
-            *s |= self.sees(n);
+        for ((s, fp), &wins) in seen.iter_mut().zip(&self.footprints).zip(&self.wins) {
+            *s |= nearest_enough(fp, wins);
         }
     }
 
     /// True when voxel `n` of the list last rendered is nearest in its view at no less than a
     /// quarter of its footprint: the view sees it.
     pub(crate) fn sees(&self, n: usize) -> bool {
-        let fp = &self.footprints[n];
-        !fp.is_empty() && 4 * self.wins[n] >= fp.area()
+        nearest_enough(&self.footprints[n], self.wins[n])
     }
 
     /// Z-buffers the voxels of `list` in the view of `proj`: afterwards
@@ -441,6 +440,13 @@ impl ZBuffer {
             }
         }
     }
+}
+
+/// True when a voxel nearest at `wins` pixels of its footprint `fp` is seen: at no less than
+/// a quarter of it.
+#[inline]
+fn nearest_enough(fp: &Footprint, wins: u32) -> bool {
+    !fp.is_empty() && 4 * wins >= fp.area()
 }
 
 /// Edge of the square blocks of a layer that the fast kernel culls together, voxels.

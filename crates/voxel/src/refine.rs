@@ -289,6 +289,10 @@ fn judge(
         }
         let spread = robust_spread(scratch);
         if depth == 0 {
+            // No candidate can be `margin` below a spread under it: most true tops stop here.
+            if spread < params.margin {
+                return None;
+            }
             own = spread;
         } else if best.is_none_or(|(_, s, _)| spread < s) {
             best = Some((depth, spread, mean_of(&scratch.colours)));
