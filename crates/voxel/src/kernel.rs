@@ -516,7 +516,18 @@ impl<'a> Pixels<'a> {
     /// Sum and count of the footprint pixels not yet claimed (and foreground, with a mask).
     #[inline]
     pub(crate) fn gather(&self, fp: &Footprint, claimed: &[u8]) -> ([u32; 3], u32) {
-        let open = |i: usize| claimed[i] == 0 && self.mask.is_none_or(|m| m[i] != 0);
+        self.sum_where(fp, |i| claimed[i] == 0)
+    }
+
+    /// Sum and count of the footprint pixels `i` (row-major index) where `take(i)` holds and
+    /// that are foreground, with a mask.
+    #[inline]
+    pub(crate) fn sum_where(
+        &self,
+        fp: &Footprint,
+        take: impl Fn(usize) -> bool,
+    ) -> ([u32; 3], u32) {
+        let open = |i: usize| take(i) && self.mask.is_none_or(|m| m[i] != 0);
         let mut sum = [0u32; 3];
         let mut n = 0u32;
         for v in fp.v0..=fp.v1 {

@@ -309,21 +309,7 @@ fn judge(
 /// Mean colour of the footprint's pixels (its foreground ones, with a mask); `None` when
 /// there are none.
 fn mean_colour(px: &Pixels<'_>, fp: &Footprint) -> Option<[f32; 3]> {
-    let mut sum = [0u32; 3];
-    let mut n = 0u32;
-    for v in fp.v0..=fp.v1 {
-        let row = v as usize * px.width;
-        for u in fp.u0..=fp.u1 {
-            let at = row + u as usize;
-            if px.mask.is_some_and(|m| m[at] == 0) {
-                continue;
-            }
-            for (s, &c) in sum.iter_mut().zip(&px.rgb[3 * at..3 * at + 3]) {
-                *s += u32::from(c);
-            }
-            n += 1;
-        }
-    }
+    let (sum, n) = px.sum_where(fp, |_| true);
     (n > 0).then(|| sum.map(|s| s as f32 / n as f32))
 }
 
