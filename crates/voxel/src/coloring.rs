@@ -323,7 +323,7 @@ impl VoxelList {
     }
 
     /// The list of `voxels`, which must come row by row (all of one row `(j, k)` together).
-    pub(crate) fn new(voxels: Vec<[usize; 3]>) -> Self {
+    fn new(voxels: Vec<[usize; 3]>) -> Self {
         let mut rows: Vec<(usize, usize)> = Vec::new();
         let mut row_of = Vec::with_capacity(voxels.len());
         for &[_, j, k] in &voxels {

@@ -11,7 +11,8 @@
 //!   [`voxel_coloring_reference`];
 //! - [`refine_tops`], an optional pass after voxel coloring: each upward-facing surface voxel
 //!   moves down its column to where its views' colours agree best, which a sweep's threshold
-//!   cannot find (a voxel floating a layer over a textured top passes it);
+//!   cannot find (a voxel floating a layer over a textured top passes it); better geometry,
+//!   but not for rendering (see its module);
 //! - [`space_carving`] (Kutulakos and Seitz), multi-sweep, for rigs whose cameras are not all
 //!   above the object;
 //! - [`planar_faces`]: a model's large flat faces, whose planes a planner can aim views at

@@ -28,12 +28,18 @@
 //! so the result does not depend on the order or the thread count.
 //!
 //! It is a geometry pass and is not part of the rendering pipeline: measured on the
-//! catalogue (`docs/voxel.md`, "Session 29"), it brings `head` within the 1.5-voxel / 90%
-//! targets and keeps or improves the other scenes' accuracy, but novel views rendered from
-//! the refined models are 0.3-1.1 dB worse at 24 and 48 views on `lambertian`, `mirror` and
-//! `chair` (better on sparse `head`): where the sweep's fillet is removed nothing was
-//! reconstructed behind it, and the renderer's own depth search already corrects a surface a
-//! few voxels too high.
+//! catalogue (`docs/voxel.md`, "Refining the tops"), it brings `head` within the 1.5-voxel /
+//! 90% targets and keeps or improves the other scenes' accuracy, but novel views rendered
+//! from the refined models are 0.3-1.1 dB worse at 24 and 48 views on `lambertian`, `mirror`
+//! and `chair` (better on sparse `head`), and on the real dinoSparseRing the model covers
+//! less of the silhouettes (worst view 97.3% -> 93.2%): where the sweep's fillet is removed
+//! nothing was reconstructed behind it, and the renderer's own depth search already corrects
+//! a surface a few voxels too high.
+//!
+//! # Conventions
+//! "Up" is +z of the grid (the turntable frame's pan axis); depths are in voxels, colour
+//! differences in grey levels of 8-bit images, RMS over R, G and B, as in the criteria of
+//! [`crate::Criterion`].
 
 use std::collections::HashMap;
 
@@ -125,8 +131,11 @@ struct Move {
 /// docs). `views` are the views the model was made from (pinhole, images the cameras' size;
 /// masks, where given, limit the footprints to foreground pixels).
 ///
+/// Errors: parameters out of their domain ([`TopRefinement::validate`]), fewer views than
+/// [`TopRefinement::min_views`], or views the kernels refuse (sizes that differ from their
+/// cameras, distorted cameras); the model is then left as it was.
+///
 /// ```
-/// use aibr_camera::Angle;
 /// use aibr_scene::{RenderOptions, catalogue};
 /// use aibr_voxel::{ColoringParams, TopRefinement, View, VoxelGrid, refine_tops, voxel_coloring};
 ///
