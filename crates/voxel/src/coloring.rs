@@ -480,11 +480,11 @@ struct BlockScratch {
     /// Per voxel of the block, with [`ColoringParams::behind_hull`]: its hull normal and
     /// its centre, once it has met an open view.
     normals: Vec<Option<([i32; 3], Point3<f64>)>>,
-    /// Per voxel of the block, `words` words: bit `a` set where the voxel's footprint in the
-    /// block's active view `a` still had a pixel open when it was tested. A kept voxel claims
-    /// only there: elsewhere every pixel of its footprint is already resolved.
+    /// Per voxel of the block, a bit per view (`n.div_ceil(64)` words a voxel, `n` views):
+    /// bit `a` set where the voxel's footprint in the block's active view `a` still had a
+    /// pixel open when it was tested. A kept voxel claims only there: elsewhere every pixel
+    /// of its footprint is already resolved.
     open: Vec<u64>,
-    words: usize,
 }
 
 impl BlockScratch {
@@ -506,7 +506,6 @@ impl BlockScratch {
             decide: Vec::with_capacity(n),
             normals: vec![None; cells],
             open: vec![0; cells * n.div_ceil(64)],
-            words: n.div_ceil(64),
         }
     }
 }
@@ -564,10 +563,10 @@ impl BlockFootprints {
     }
 
     /// The footprints in view `v` of the voxels `[i0..i1) x [j0..j1)` of layer `k` (inset
-    /// by `inset` pixels when it is `Some`, as [`ColoringParams::inset`] gives it), computed on first use within the block for the
-    /// rows that hold a voxel still `alive` (flags row-major, as the footprints are). The
-    /// other rows keep stale values: ask only for voxels alive at the first use (they are
-    /// alive then).
+    /// by `inset` pixels when it is `Some`, as [`ColoringParams::inset`] gives it),
+    /// computed on first use within the block for the rows that hold a voxel still `alive`
+    /// (flags row-major, as the footprints are). The other rows keep stale values: ask only
+    /// for voxels alive at the first use (they are alive then).
     #[allow(clippy::too_many_arguments)]
     fn of(
         &mut self,
@@ -745,7 +744,8 @@ fn decide_block(
     scratch.silhouette = silhouette;
     out.rejected = size - alive;
     scratch.counts[..size].fill(0);
-    let words = scratch.words;
+    let n = projectors.len();
+    let words = n.div_ceil(64);
     scratch.open[..size * words].fill(0);
     let width = i1 - i0;
     if hull.is_some() {
@@ -753,7 +753,6 @@ fn decide_block(
     }
     let active = std::mem::take(&mut scratch.active);
     let m = active.len();
-    let n = projectors.len();
     for (a, &v) in active.iter().enumerate() {
         if alive == 0 {
             break;
@@ -800,6 +799,10 @@ fn decide_block(
         }
     }
     scratch.active = active;
+    // Without an inset a voxel was tested on its whole footprints, so it claims only in the
+    // views where one still had a pixel open; with one, in every view that could still see
+    // the block.
+    let claim_where_open = params.inset().is_none();
     for x in 0..size {
         let count = scratch.counts[x];
         if !scratch.alive[x] || count < params.min_views {
@@ -820,12 +823,10 @@ fn decide_block(
             &mut azimuths[x * n..(x + 1) * n],
         ) {
             out.kept.push(([i, j, layer.k], c));
-            // It claims its whole footprints. Without an inset it was tested on them, so
-            // only the views where one still had a pixel open; with one, in every view
-            // that could still see the block.
+            // It claims its whole footprints (see `claim_where_open`).
             let open = &scratch.open[x * words..(x + 1) * words];
             for (a, &v) in scratch.active.iter().enumerate() {
-                if params.inset().is_none() && open[a / 64] & (1 << (a % 64)) == 0 {
+                if claim_where_open && open[a / 64] & (1 << (a % 64)) == 0 {
                     continue;
                 }
                 let fp = scratch
