@@ -277,41 +277,45 @@ fn judge(
     scratch: &mut Scratch,
 ) -> Option<Move> {
     let [i, j, k] = top;
-    let mut own = f32::INFINITY;
-    let mut best: Option<(usize, f32, [u8; 3])> = None;
-    for depth in 0..=params.max_depth.min(k) {
+    // The views' colours of the voxel `depth` below the top, in `scratch.colours`, and their
+    // spread; `None` when fewer than `min_views` views have a foreground pixel there.
+    let spread_at = |depth: usize, scratch: &mut Scratch| {
         let centre = grid.centre([i, j, k - depth]);
         scratch.colours.clear();
         for &n in &scratch.seeing {
             let h = projectors[n].project_point(&centre);
-            if let Some(fp) = projectors[n].footprint(h) {
-                if let Some(c) = mean_colour(&pixels[n], &fp) {
-                    scratch.colours.push(c);
-                }
+            if let Some(c) = projectors[n]
+                .footprint(h)
+                .and_then(|fp| mean_colour(&pixels[n], &fp))
+            {
+                scratch.colours.push(c);
             }
         }
-        if scratch.colours.len() < params.min_views {
-            if depth == 0 {
-                return None;
+        (scratch.colours.len() >= params.min_views).then(|| robust_spread(scratch))
+    };
+    let own = spread_at(0, scratch)?;
+    // No candidate can be `margin` below a spread under it: most true tops stop here.
+    if own < params.margin {
+        return None;
+    }
+    let mut best: Option<(usize, f32)> = None;
+    for depth in 1..=params.max_depth.min(k) {
+        if let Some(spread) = spread_at(depth, scratch) {
+            if best.is_none_or(|(_, s)| spread < s) {
+                best = Some((depth, spread));
             }
-            continue;
-        }
-        let spread = robust_spread(scratch);
-        if depth == 0 {
-            // No candidate can be `margin` below a spread under it: most true tops stop here.
-            if spread < params.margin {
-                return None;
-            }
-            own = spread;
-        } else if best.is_none_or(|(_, s, _)| spread < s) {
-            best = Some((depth, spread, mean_of(&scratch.colours)));
         }
     }
-    let (depth, spread, colour) = best?;
-    (spread <= params.ratio * own && own - spread >= params.margin).then_some(Move {
+    let (depth, spread) = best?;
+    if spread > params.ratio * own || own - spread < params.margin {
+        return None;
+    }
+    // The new place's colour, from the colours its spread was taken over.
+    spread_at(depth, scratch);
+    Some(Move {
         top,
         depth,
-        colour,
+        colour: mean_of(&scratch.colours),
     })
 }
 
