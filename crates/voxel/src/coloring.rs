@@ -21,10 +21,10 @@ pub struct ColoringParams {
     /// (default 3: two views close together hardly test consistency).
     pub min_views: usize,
     /// After the sweep, keep only voxels that some view sees: nearest in that view's
-    /// z-buffer at no less than half their footprint (default true). A single top-down sweep
-    /// judges the voxels of one layer together although, for cameras not far above, they
-    /// hide each other; walls then come out a few voxels thick, and this removes the hidden
-    /// part.
+    /// z-buffer at no less than a quarter of their footprint (default true). A single
+    /// top-down sweep judges the voxels of one layer together although, for cameras not far
+    /// above, they hide each other; walls then come out a few voxels thick, and this removes
+    /// the hidden part.
     pub visible_only: bool,
     /// Views behind the visual hull (default `Some(-0.3)`; needs masks). A voxel on the
     /// boundary of the masks' visual hull is not judged by a view whose direction from it
