@@ -388,13 +388,22 @@ impl ZBuffer {
             .extend(list.rows.iter().map(|&(j, k)| proj.row_base(grid, j, k)));
         // The centres' projections first, then the footprints in a loop of their own, which
         // vectorises.
+        let count = list.voxels.len();
         for h in &mut self.h {
             h.clear();
+            h.resize(count, 0.0);
         }
-        for (&r, v) in list.row_of.iter().zip(&list.voxels) {
-            let h = proj.along_row(&self.bases[r], v[0]);
-            for (to, x) in self.h.iter_mut().zip(h) {
-                to.push(x);
+        {
+            let [hx, hy, hz] = &mut self.h;
+            for ((((&r, v), x), y), z) in list
+                .row_of
+                .iter()
+                .zip(&list.voxels)
+                .zip(hx.iter_mut())
+                .zip(hy.iter_mut())
+                .zip(hz.iter_mut())
+            {
+                [*x, *y, *z] = proj.along_row(&self.bases[r], v[0]);
             }
         }
         let [hx, hy, depths] = &self.h;
@@ -417,7 +426,9 @@ impl ZBuffer {
         if u0 > u1 {
             return;
         }
-        let width = (u1 - u0) as usize + 1;
+        // Each row padded by `RUN - 1` keys that no footprint reaches, so that a footprint's
+        // row of up to `RUN` pixels is lowered as a run of fixed length (see `lower_rows`).
+        let width = (u1 - u0) as usize + RUN;
         self.nearest.clear();
         self.nearest
             .resize(width * (v1 - v0 + 1) as usize, u64::MAX);
@@ -427,10 +438,17 @@ impl ZBuffer {
             }
             let key = (u64::from(z.to_bits()) << 32) | n as u64;
             let (a, b) = ((fp.u0 - u0) as usize, (fp.u1 - u0) as usize + 1);
-            for v in (fp.v0 - v0) as usize..(fp.v1 - v0) as usize + 1 {
-                let row = v * width;
-                for k in &mut self.nearest[row + a..row + b] {
-                    *k = (*k).min(key);
+            let rows = (fp.v0 - v0) as usize..(fp.v1 - v0) as usize + 1;
+            if b - a <= 4 {
+                lower_rows::<4>(&mut self.nearest, width, rows, a, b - a, key);
+            } else if b - a <= RUN {
+                lower_rows::<RUN>(&mut self.nearest, width, rows, a, b - a, key);
+            } else {
+                for v in rows {
+                    let row = v * width;
+                    for k in &mut self.nearest[row + a..row + b] {
+                        *k = (*k).min(key);
+                    }
                 }
             }
         }
@@ -438,6 +456,33 @@ impl ZBuffer {
             if k != u64::MAX {
                 self.wins[(k & u64::from(u32::MAX)) as usize] += 1;
             }
+        }
+    }
+}
+
+/// The longest footprint row [`ZBuffer::render`] lowers as a run of fixed length.
+const RUN: usize = 8;
+
+/// Lowers to `key` the keys `a..a + len` (`len` at most `N`) of rows `rows` of `nearest`,
+/// rows of `width` keys, as runs of `N` keys from `a` (the keys past `a + len` lowered to
+/// `u64::MAX`, which keeps them). A count known when compiling: footprint rows are short (3
+/// or 4 pixels at 128^3 with VGA views, 2 or 3 at 256^3), and a loop over exactly their
+/// pixels spent more time choosing between its vector and remainder paths than lowering
+/// keys (some 4% of the kernel's time at 128^3, `docs/voxel.md`).
+#[inline(always)]
+fn lower_rows<const N: usize>(
+    nearest: &mut [u64],
+    width: usize,
+    rows: std::ops::Range<usize>,
+    a: usize,
+    len: usize,
+    key: u64,
+) {
+    let keys: [u64; N] = std::array::from_fn(|l| if l < len { key } else { u64::MAX });
+    for v in rows {
+        let at = v * width + a;
+        for (k, &new) in nearest[at..at + N].iter_mut().zip(&keys) {
+            *k = (*k).min(new);
         }
     }
 }

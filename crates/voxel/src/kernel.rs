@@ -1303,6 +1303,82 @@ mod tests {
         Ok(())
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(32))]
+
+        /// The visibility pass's z-buffer, which lowers short footprint rows as padded runs
+        /// of fixed length, says a voxel is seen exactly when a plain z-buffer over the whole
+        /// image (every pixel of every footprint, nearest centre first, ties to the lower
+        /// index) gives it at least a quarter of its footprint. Footprints from one pixel to
+        /// the whole image, cameras inside the grid and out.
+        #[test]
+        fn zbuffer_sees_what_a_plain_zbuffer_sees(
+            radius in 0.05f64..3.0,
+            height in -1.0f64..3.0,
+            target in -0.5f64..1.5,
+            pan in 0.0f64..360.0,
+            focal in 20.0f64..2000.0,
+            seed in proptest::num::u64::ANY,
+        ) {
+            use crate::coloring::{VoxelList, ZBuffer};
+            use crate::grid::VoxelModel;
+
+            let (grid, p) = ring_projector(radius, height, target, pan, focal)?;
+            let mut model = VoxelModel::empty(grid);
+            // A third of the voxels, scattered (a splitmix64 stream from the seed).
+            let mut state = seed;
+            let mut next = || {
+                state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+                let z = (state ^ (state >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+                let z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+                z ^ (z >> 31)
+            };
+            let [nx, ny, nz] = grid.dims();
+            for k in 0..nz {
+                for j in 0..ny {
+                    for i in 0..nx {
+                        if next() % 3 == 0 {
+                            model.set([i, j, k], [0; 3]);
+                        }
+                    }
+                }
+            }
+            let list = VoxelList::occupied(&model);
+            let mut z = ZBuffer::default();
+            z.render(&grid, &p, &list);
+            // The plain z-buffer, from one-voxel footprints.
+            let (w, h) = (160usize, 120usize);
+            let mut nearest = vec![u64::MAX; w * h];
+            let footprints: Vec<Footprint> = list
+                .voxels
+                .iter()
+                .enumerate()
+                .map(|(n, &[i, j, k])| {
+                    let c = p.along_row(&p.row_base(&grid, j, k), i);
+                    let fp = p.footprint(c).unwrap_or(Footprint::EMPTY);
+                    if !fp.is_empty() {
+                        let key = (u64::from(c[2].to_bits()) << 32) | n as u64;
+                        for v in fp.v0..=fp.v1 {
+                            for u in fp.u0..=fp.u1 {
+                                let at = v as usize * w + u as usize;
+                                nearest[at] = nearest[at].min(key);
+                            }
+                        }
+                    }
+                    fp
+                })
+                .collect();
+            let mut wins = vec![0u32; footprints.len()];
+            for &key in nearest.iter().filter(|&&key| key != u64::MAX) {
+                wins[(key & u64::from(u32::MAX)) as usize] += 1;
+            }
+            for (n, (fp, &won)) in footprints.iter().zip(&wins).enumerate() {
+                let expected = !fp.is_empty() && 4 * won >= fp.area();
+                proptest::prop_assert_eq!(z.sees(n), expected, "voxel {:?}", list.voxels[n]);
+            }
+        }
+    }
+
     /// The first voxel of the rows the row-at-a-time tests project: 19 - 5 = 14 voxels, one
     /// run of eight and six more.
     const FIRST: usize = 5;
