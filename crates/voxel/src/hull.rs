@@ -152,23 +152,35 @@ impl Hull {
         }
         let [nx, ny, nz] = self.dims;
         let step = |x: usize, d: i32, n: usize| (x as i64 + i64::from(d)).clamp(0, n as i64 - 1);
+        let outside = |[di, dj, dk]: [i32; 3]| {
+            let (a, b, c) = (step(i, di, nx), step(j, dj, ny), step(k, dk, nz));
+            !self.at(a as usize, b as usize, c as usize)
+        };
+        // Most voxels asked lie inside with all six face neighbours: those six first.
+        const FACES: [[i32; 3]; 6] = [
+            [-1, 0, 0],
+            [1, 0, 0],
+            [0, -1, 0],
+            [0, 1, 0],
+            [0, 0, -1],
+            [0, 0, 1],
+        ];
+        if !FACES.into_iter().any(outside) {
+            return [0; 3];
+        }
         let mut normal = [0i32; 3];
-        let mut boundary = false;
         for dk in -1..=1 {
             for dj in -1..=1 {
                 for di in -1..=1 {
-                    let (a, b, c) = (step(i, di, nx), step(j, dj, ny), step(k, dk, nz));
-                    if self.at(a as usize, b as usize, c as usize) {
-                        continue;
+                    if outside([di, dj, dk]) {
+                        normal[0] += di;
+                        normal[1] += dj;
+                        normal[2] += dk;
                     }
-                    boundary |= di.abs() + dj.abs() + dk.abs() == 1;
-                    normal[0] += di;
-                    normal[1] += dj;
-                    normal[2] += dk;
                 }
             }
         }
-        if boundary { normal } else { [0; 3] }
+        normal
     }
 }
 
