@@ -312,14 +312,19 @@ pub(crate) struct VoxelList {
 impl VoxelList {
     /// The occupied voxels of `model`, layer by layer from the bottom, row by row.
     pub(crate) fn occupied(model: &VoxelModel) -> Self {
-        VoxelList::new(
-            model
-                .occupied
-                .indexed_iter()
-                .filter(|(_, o)| **o)
-                .map(|((k, j, i), _)| [i, j, k])
-                .collect(),
-        )
+        let layers: Vec<Vec<[usize; 3]>> = (0..model.occupied.len_of(ndarray::Axis(0)))
+            .into_par_iter()
+            .map(|k| {
+                model
+                    .occupied
+                    .index_axis(ndarray::Axis(0), k)
+                    .indexed_iter()
+                    .filter(|(_, o)| **o)
+                    .map(|((j, i), _)| [i, j, k])
+                    .collect()
+            })
+            .collect();
+        VoxelList::new(layers.concat())
     }
 
     /// The list of `voxels`, which must come row by row (all of one row `(j, k)` together).
