@@ -1,5 +1,8 @@
 //! Voxel coloring (Seitz and Dyer 1997): a single top-down plane sweep.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
+
 use nalgebra::Point3;
 use rayon::prelude::*;
 
@@ -199,7 +202,16 @@ pub fn voxel_coloring(
     // Per block, per voxel column, per view: the view's azimuth from the column, computed
     // when a voxel of the column is first decided (see `decide`); a block's are allocated
     // when it first decides a voxel, which most blocks never do.
-    let mut azimuths = vec![Vec::new(); bx * by];
+    let azimuths: Vec<Mutex<Vec<f64>>> = (0..bx * by).map(|_| Mutex::default()).collect();
+    // The blocks of a layer are dealt out one at a time to one task per thread, each with
+    // its buffers for the whole run, in the order of the work each block found in the layer
+    // above (a block's layers are alike), most first: a layer then ends on a light block,
+    // not with one thread waiting on the other's last heavy one.
+    let mut tasks: Vec<BlockScratch> = (0..rayon::current_num_threads().max(1))
+        .map(|_| BlockScratch::new(n))
+        .collect();
+    let mut order: Vec<usize> = (0..bx * by).collect();
+    let mut work = vec![0u64; bx * by];
     for k in (0..nz).rev() {
         let layer = Layer {
             k,
@@ -208,17 +220,17 @@ pub fn voxel_coloring(
         };
         // Decide the layer block by block, blocks in parallel, against the claims of the
         // layers above.
-        let bits_ref = &bits;
-        let blocks: Vec<BlockResult> = azimuths
+        order.sort_by_key(|&b| std::cmp::Reverse(work[b]));
+        let next = AtomicUsize::new(0);
+        let blocks: Vec<Vec<(usize, BlockResult)>> = tasks
             .par_iter_mut()
-            .enumerate()
-            .with_min_len(8)
-            .map_init(
-                || BlockScratch::new(n),
-                |scratch, (b, azimuths)| {
+            .map(|scratch| {
+                let mut done = Vec::new();
+                while let Some(&b) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
                     let (i0, j0) = ((b % bx) * BLOCK, (b / bx) * BLOCK);
                     let (i1, j1) = ((i0 + BLOCK).min(nx), (j0 + BLOCK).min(ny));
-                    decide_block(
+                    let mut azimuths = azimuths[b].lock().unwrap_or_else(PoisonError::into_inner);
+                    let result = decide_block(
                         grid,
                         (i0, i1),
                         (j0, j1),
@@ -226,16 +238,21 @@ pub fn voxel_coloring(
                         &projectors,
                         &pixels,
                         &centres,
-                        bits_ref,
+                        &bits,
                         hull.as_ref(),
                         params,
                         scratch,
-                        azimuths,
-                    )
-                },
-            )
+                        &mut azimuths,
+                    );
+                    done.push((b, result));
+                }
+                done
+            })
             .collect();
-        for block in &blocks {
+        // In the order the tasks took the blocks: what a block keeps and claims does not
+        // depend on it.
+        for (b, block) in blocks.iter().flatten() {
+            work[*b] = block.work;
             stats.silhouette_rejected += block.rejected;
             stats.tested += block.tested;
             stats.kept += block.kept.len();
@@ -512,6 +529,9 @@ struct BlockResult {
     claims: Vec<(u32, Footprint)>,
     rejected: usize,
     tested: usize,
+    /// The questions the block left to its voxels: its live voxels times the views still
+    /// open for it after the block-wide tests (0 when those settled it).
+    work: u64,
 }
 
 /// Per-thread buffers of the fast kernel.
@@ -718,6 +738,7 @@ fn decide_block(
         claims: Vec::new(),
         rejected: 0,
         tested: 0,
+        work: 0,
     };
     scratch.silhouette.clear();
     scratch.active.clear();
@@ -770,6 +791,7 @@ fn decide_block(
             size
         }
     };
+    out.work = (alive * scratch.active.len()) as u64;
     let silhouette = std::mem::take(&mut scratch.silhouette);
     for &v in &silhouette {
         let fps = scratch.footprints.of(
