@@ -881,10 +881,17 @@ impl Sample {
     }
 }
 
+/// The RMS difference of two colours over R, G and B, in grey levels.
 #[inline]
 fn rms_difference(a: &[f32; 3], b: &[f32; 3]) -> f32 {
+    (squared_difference(a, b) / 3.0).sqrt()
+}
+
+/// The squared difference of two colours summed over R, G and B.
+#[inline]
+pub(crate) fn squared_difference(a: &[f32; 3], b: &[f32; 3]) -> f32 {
     let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / 3.0).sqrt()
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
 }
 
 /// The colour of a consistent voxel (mean of its samples), or `None` when inconsistent.

@@ -48,7 +48,7 @@ use rayon::prelude::*;
 use crate::coloring::{VoxelList, ZBuffer};
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
-use crate::kernel::{Footprint, Pixels, Projector, View, validate_views};
+use crate::kernel::{Footprint, Pixels, Projector, View, squared_difference, validate_views};
 
 /// Parameters of [`refine_tops`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -362,12 +362,6 @@ fn robust_spread(scratch: &mut Scratch) -> f32 {
         per_view.push(upper_median(differences));
     }
     (upper_median(per_view) / 3.0).sqrt()
-}
-
-/// The squared colour difference summed over R, G and B.
-fn squared_difference(a: &[f32; 3], b: &[f32; 3]) -> f32 {
-    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
 }
 
 /// The element at `len / 2` in sorted order (reorders `values`); 0 for none.
