@@ -277,9 +277,8 @@ fn judge(
     scratch: &mut Scratch,
 ) -> Option<Move> {
     let [i, j, k] = top;
-    // The views' colours of the voxel `depth` below the top, in `scratch.colours`, and their
-    // spread; `None` when fewer than `min_views` views have a foreground pixel there.
-    let spread_at = |depth: usize, scratch: &mut Scratch| {
+    // The views' colours of the voxel `depth` below the top, into `scratch.colours`.
+    let colours_at = |depth: usize, scratch: &mut Scratch| {
         let centre = grid.centre([i, j, k - depth]);
         scratch.colours.clear();
         for &n in &scratch.seeing {
@@ -291,6 +290,10 @@ fn judge(
                 scratch.colours.push(c);
             }
         }
+    };
+    // Their spread; `None` when fewer than `min_views` views have a foreground pixel there.
+    let spread_at = |depth: usize, scratch: &mut Scratch| {
+        colours_at(depth, scratch);
         (scratch.colours.len() >= params.min_views).then(|| robust_spread(scratch))
     };
     let own = spread_at(0, scratch)?;
@@ -311,7 +314,7 @@ fn judge(
         return None;
     }
     // The new place's colour, from the colours its spread was taken over.
-    spread_at(depth, scratch);
+    colours_at(depth, scratch);
     Some(Move {
         top,
         depth,
