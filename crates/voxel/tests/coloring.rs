@@ -210,34 +210,41 @@ fn views_behind_the_hull_no_longer_tear_the_mirror_box() -> TestResult {
     Ok(())
 }
 
+/// `f` run on a pool of `threads` threads.
+fn on_threads<T: Send>(
+    threads: usize,
+    f: impl FnOnce() -> T + Send,
+) -> Result<T, Box<dyn std::error::Error>> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    Ok(pool.install(f))
+}
+
 #[test]
 fn same_model_at_any_thread_count() -> TestResult {
     let scene = catalogue::chair()?;
     let cap = capture(&scene, 16)?;
     let grid = VoxelGrid::with_resolution(scene.bounds(), 64)?;
     let run = |threads: usize| -> Result<_, Box<dyn std::error::Error>> {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()?;
-        Ok(pool.install(|| voxel_coloring(&grid, &cap.views(true), &ColoringParams::default()))?)
+        Ok(on_threads(threads, || {
+            voxel_coloring(&grid, &cap.views(true), &ColoringParams::default())
+        })??)
     };
     let one = run(1)?;
     assert!(one.model == run(2)?.model);
     assert!(one.model == run(5)?.model);
     let carve = |threads: usize| -> Result<_, Box<dyn std::error::Error>> {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()?;
-        Ok(pool.install(|| space_carving(&grid, &cap.views(true), &CarvingParams::default()))?)
+        Ok(on_threads(threads, || {
+            space_carving(&grid, &cap.views(true), &CarvingParams::default())
+        })??)
     };
     assert!(carve(1)?.model == carve(3)?.model);
     let refine = |threads: usize| -> Result<_, Box<dyn std::error::Error>> {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()?;
         let mut model = one.model.clone();
-        let stats =
-            pool.install(|| refine_tops(&mut model, &cap.views(true), &TopRefinement::default()))?;
+        let stats = on_threads(threads, || {
+            refine_tops(&mut model, &cap.views(true), &TopRefinement::default())
+        })??;
         Ok((model, stats))
     };
     let (refined, stats) = refine(1)?;
