@@ -1335,30 +1335,21 @@ mod tests {
             target in -0.5f64..1.5,
             pan in 0.0f64..360.0,
             focal in 20.0f64..2000.0,
-            seed in proptest::num::u64::ANY,
+            // A third of the 19^3 grid's voxels, scattered.
+            occupied in proptest::collection::vec(
+                proptest::bool::weighted(1.0 / 3.0),
+                19 * 19 * 19,
+            ),
         ) {
             use crate::coloring::{VoxelList, ZBuffer};
             use crate::grid::VoxelModel;
 
             let (grid, p) = ring_projector(radius, height, target, pan, focal)?;
             let mut model = VoxelModel::empty(grid);
-            // A third of the voxels, scattered (a splitmix64 stream from the seed).
-            let mut state = seed;
-            let mut next = || {
-                state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-                let z = (state ^ (state >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-                let z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-                z ^ (z >> 31)
-            };
             let [nx, ny, nz] = grid.dims();
-            for k in 0..nz {
-                for j in 0..ny {
-                    for i in 0..nx {
-                        if next() % 3 == 0 {
-                            model.set([i, j, k], [0; 3]);
-                        }
-                    }
-                }
+            proptest::prop_assert_eq!(occupied.len(), nx * ny * nz);
+            for (n, _) in occupied.iter().enumerate().filter(|(_, o)| **o) {
+                model.set([n % nx, n / nx % ny, n / (nx * ny)], [0; 3]);
             }
             let list = VoxelList::occupied(&model);
             let mut z = ZBuffer::default();
