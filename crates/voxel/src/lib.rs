@@ -15,6 +15,8 @@
 //!   but not for rendering (see its module);
 //! - [`space_carving`] (Kutulakos and Seitz), multi-sweep, for rigs whose cameras are not all
 //!   above the object;
+//! - [`VoxelModel::filled`]: the solid a model's shell encloses (voxel coloring keeps only
+//!   the voxels its views test; a renderer casting rays into the shell wants the inside);
 //! - [`planar_faces`]: a model's large flat faces, whose planes a planner can aim views at
 //!   (a face seen only at a slant comes out a few voxels too fat);
 //! - [`foreground`] masks from a dark background, [`metrics`] against ground truth, and
@@ -57,6 +59,7 @@ pub mod carving;
 pub mod coloring;
 pub mod error;
 pub mod faces;
+pub mod fill;
 pub mod foreground;
 pub mod grid;
 mod hull;
