@@ -5,7 +5,8 @@
 //! (default: `$AIBR_DATA_DIR/middlebury-templeRing`, 96). The ring frame comes from
 //! `aibr_camera::fit_ring`; silhouettes by the README's recipe, clipped to the projection of
 //! the README's bounding box (templeRing's box is built in). Cameras are not all above
-//! the object's box, so the model is made by space carving.
+//! the object's box, so the model is made by space carving. `FILL=0` renders from the model
+//! as given instead of the solid it encloses ([`RenderParams::fill`]).
 
 use aibr_camera::readers::read_middlebury_par;
 use aibr_camera::{Aabb, ImageSize, fit_ring};
@@ -75,7 +76,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 image: images[i].clone(),
             })
             .collect();
-        let renderer = Renderer::new(&model, sources, RenderParams::default())?;
+        let params = RenderParams {
+            fill: match std::env::var("FILL").as_deref() {
+                Ok("0") => None,
+                _ => RenderParams::default().fill,
+            },
+            ..RenderParams::default()
+        };
+        let renderer = Renderer::new(&model, sources, params)?;
         let view = renderer.render(&cameras[held])?;
         let p = metrics::psnr(&images[held], &view.rgb, Some(&masks[held]))?;
         println!("{}: {p:.2} dB", views[held].image);

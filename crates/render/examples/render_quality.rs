@@ -10,8 +10,10 @@
 //! `CRITERION=classic:T` or `CRITERION=angular:T:W` (grey levels, degrees) replaces voxel
 //! coloring's default criterion.
 //! `REFINE=0` turns the renderer's depth refinement off, `REFINE=front:back:steps:radius`
-//! sets it (voxels, voxels, depths, pixels). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the
-//! model first.
+//! sets it (voxels, voxels, depths, pixels). `FILL=0` renders from the model as given instead
+//! of the solid it encloses, `FILL=N` fills it with a closing of `N` voxels
+//! ([`RenderParams::fill`]). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the model first.
+//! `GRID=N` reconstructs on an `N`^3 grid instead of 128^3.
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -54,7 +56,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     mask: Some(&s.frame.mask),
                 })
                 .collect();
-            let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
+            let resolution = match std::env::var("GRID") {
+                Ok(n) => n.parse()?,
+                Err(_) => 128,
+            };
+            let grid = VoxelGrid::with_resolution(scene.bounds(), resolution)?;
             let coloring = ColoringParams {
                 criterion: criterion()?,
                 ..ColoringParams::default()
@@ -83,6 +89,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             if let Ok(spec) = std::env::var("REFINE") {
                 params.refine = refinement(&spec)?;
+            }
+            if let Ok(fill) = std::env::var("FILL") {
+                params.fill = match fill.parse()? {
+                    0 => None,
+                    n => Some(n),
+                };
             }
             let renderer = Renderer::new(&model, sources, params)?;
             let (mut sum, mut worst, mut ssim_sum, mut geo, mut m) =

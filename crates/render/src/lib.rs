@@ -1,7 +1,8 @@
 //! Depth-driven image-based rendering for turntable captures, and image metrics.
 //!
 //! - [`Renderer`]: renders a virtual camera from captured views plus a voxel model
-//!   (section 2.2 of the paper): per pixel the model is ray cast for the surface point, and
+//!   (section 2.2 of the paper): per pixel the model (by default the solid its shell
+//!   encloses, [`RenderParams::fill`]) is ray cast for the surface point, and
 //!   the captured rays through it are blended with unstructured-lumigraph weights (Buehler et
 //!   al. 2001), skipping sources that do not see the point. By default each pixel's depth is
 //!   then refined near the model's surface where the two nearest sources agree best
@@ -51,5 +52,6 @@ pub mod renderer;
 pub use error::{Error, Result};
 pub use exr_io::write_depth_exr;
 pub use renderer::{
-    Coverage, DepthRefinement, MAX_CANDIDATES, RenderParams, RenderedView, Renderer, SourceView,
+    Coverage, DepthRefinement, MAX_CANDIDATES, MAX_FILL_CLOSING, RenderParams, RenderedView,
+    Renderer, SourceView,
 };

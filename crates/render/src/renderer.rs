@@ -1,6 +1,8 @@
 //! The depth-driven IBR renderer (section 2.2 of the paper): a virtual ray is interpolated
 //! from captured rays through the surface point it meets.
 
+use std::borrow::Cow;
+
 use aibr_camera::{Camera, ImageSize};
 use aibr_voxel::{DepthMap, VoxelModel};
 use image::{GrayImage, RgbImage};
@@ -36,6 +38,12 @@ pub struct RenderParams {
     /// Refine each pixel's depth near the model's surface by photo-consistency (default on,
     /// with [`DepthRefinement::default`]; `None` renders at the model's surface).
     pub refine: Option<DepthRefinement>,
+    /// Render from the solid the model encloses, [`VoxelModel::filled`] with this closing
+    /// (default `Some(1)`: gaps in the model's shell up to about two voxels wide bridged;
+    /// at most 8). A voxel coloring model is a shell with an empty inside; a ray that slips
+    /// through a gap in it would meet the far side's inner face. `None` renders from the
+    /// model as given.
+    pub fill: Option<usize>,
 }
 
 /// Depth refinement near the model's surface.
@@ -81,9 +89,13 @@ impl Default for RenderParams {
             resolution_weight: 0.2,
             occlusion_tolerance_voxels: 2.0,
             refine: Some(DepthRefinement::default()),
+            fill: Some(1),
         }
     }
 }
+
+/// The largest closing [`RenderParams::fill`] takes.
+pub const MAX_FILL_CLOSING: usize = 8;
 
 /// Most candidate sources per frame.
 pub const MAX_CANDIDATES: usize = 16;
@@ -288,9 +300,10 @@ fn pixel_ray(camera: &Camera, rot: &Rotation3<f64>, u: usize, v: usize) -> Optio
 
 /// Renders novel views from captured views and a voxel model.
 ///
-/// Per pixel: the model is ray cast (3D DDA) for the surface point; each candidate source
-/// that sees the point (its own depth, splatted from the model at set-up, is not nearer by
-/// more than the tolerance) gets the unstructured-lumigraph penalty
+/// By default rays are cast into the solid the model's shell encloses, not into the shell
+/// ([`RenderParams::fill`]). Per pixel: the model is ray cast (3D DDA) for the surface point;
+/// each candidate source that sees the point (its own depth, splatted from the model at
+/// set-up, is not nearer by more than the tolerance) gets the unstructured-lumigraph penalty
 /// `angle + resolution_weight * resolution` (angle between the rays from the point to the
 /// virtual and the source camera, as a chord of unit vectors; resolution the relative excess
 /// distance of the source). The `k` best are blended with weights `(1 - p / p_(k+1)) / p`,
@@ -298,13 +311,14 @@ fn pixel_ray(camera: &Camera, rot: &Rotation3<f64>, u: usize, v: usize) -> Optio
 /// continuously with the camera. A ray whose point no source sees, because it went through a
 /// pinhole in the model's surface and met the far side, is blended instead at the depth of
 /// the surface splatted around the hole, when the sources see that. Then, by default, each
-/// such pixel's depth is refined near the
-/// model's surface ([`DepthRefinement`]) and the pixel blended again there. Where the model has
-/// no surface the point is taken on the focal surface at the depth of the object centre (or,
-/// beside the model's outline, at the nearest surface voxel's depth), so the image degrades
-/// like a light field instead of showing holes.
+/// such pixel's depth is refined near the model's surface ([`DepthRefinement`]) and the
+/// pixel blended again there. Where the model has no surface the point is taken on the focal
+/// surface at the depth of the object centre (or, beside the model's outline, at the nearest
+/// surface voxel's depth), so the image degrades like a light field instead of showing holes.
 pub struct Renderer<'a> {
-    model: &'a VoxelModel,
+    /// The model rays are cast into: the caller's, or the solid it encloses
+    /// ([`RenderParams::fill`]).
+    model: Cow<'a, VoxelModel>,
     sources: Vec<Source>,
     params: RenderParams,
     focus: Point3<f64>,
@@ -359,7 +373,18 @@ impl<'a> Renderer<'a> {
                 });
             }
         }
-        let grid = model.grid();
+        if let Some(closing) = params.fill.filter(|&c| c > MAX_FILL_CLOSING) {
+            return Err(Error::InvalidParameter {
+                name: "fill",
+                value: closing as f64,
+                reason: "a closing of at most 8 voxels",
+            });
+        }
+        let model = match params.fill {
+            Some(closing) => Cow::Owned(model.filled(closing)),
+            None => Cow::Borrowed(model),
+        };
+        let grid = *model.grid();
         let surface = model.surface_voxels();
         let s = grid.voxel_size();
         let focus = if surface.is_empty() {

@@ -335,8 +335,10 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
             })
         })
         .collect::<Result<Vec<_>, aibr_camera::Error>>()?;
+    // The hollow cube as given: the fill would seal the tunnel (below).
     let params = RenderParams {
         refine: None,
+        fill: None,
         ..RenderParams::default()
     };
     let virtual_camera = camera(4.0)?;
@@ -357,7 +359,7 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
             .raycast(&ray.origin, &ray.direction)
             .ok_or("through")?;
     }
-    let view = Renderer::new(&holed, sources, params)?.render(&virtual_camera)?;
+    let view = Renderer::new(&holed, sources.clone(), params)?.render(&virtual_camera)?;
     assert_eq!(view.coverage_at(x, y), Coverage::Geometry);
     let (d0, d1) = (
         intact.depth.get_pixel(x, y).0[0],
@@ -369,5 +371,58 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
         virtual_camera.depth_of(&ray.at(far.t))
     );
     assert_eq!(view.rgb.get_pixel(x, y), intact.rgb.get_pixel(x, y));
+    // Filled (the default closing), the ray meets the solid at the wall itself.
+    let filled = RenderParams {
+        fill: Some(1),
+        ..params
+    };
+    let view = Renderer::new(&holed, sources, filled)?.render(&virtual_camera)?;
+    let d2 = view.depth.get_pixel(x, y).0[0];
+    assert!(
+        ((d2 - d0) as f64).abs() < 1.5 * voxel,
+        "depth {d2} against {d0}"
+    );
+    Ok(())
+}
+
+/// The renderer fills the model by default, and refuses a closing beyond its limit.
+#[test]
+fn the_model_is_filled_before_rendering() -> TestResult {
+    let s = setup("lambertian", 24, 128)?;
+    assert_eq!(RenderParams::default().fill, Some(1));
+    let mut psnr = Vec::new();
+    for fill in [None, Some(1)] {
+        let params = RenderParams {
+            fill,
+            ..RenderParams::default()
+        };
+        let renderer = Renderer::new(&s.model, s.sources.clone(), params)?;
+        let mut sum = 0.0;
+        for a in (0..24).step_by(4) {
+            let camera = s.scene.camera((s.pans[a] + s.pans[a + 1]) * 0.5)?;
+            let truth = s.scene.render(&camera, &RenderOptions::default())?;
+            let view = renderer.render(&camera)?;
+            sum += metrics::psnr(&truth.rgb8(), &view.rgb, Some(&truth.mask))?;
+        }
+        psnr.push(sum / 6.0);
+    }
+    eprintln!(
+        "mean masked PSNR: filled {:.2} dB, as given {:.2} dB",
+        psnr[1], psnr[0]
+    );
+    assert!(
+        psnr[1] > psnr[0],
+        "filled {:.2} dB, as given {:.2} dB",
+        psnr[1],
+        psnr[0]
+    );
+    let too_wide = RenderParams {
+        fill: Some(aibr_render::MAX_FILL_CLOSING + 1),
+        ..RenderParams::default()
+    };
+    assert!(matches!(
+        Renderer::new(&s.model, s.sources.clone(), too_wide),
+        Err(aibr_render::Error::InvalidParameter { name: "fill", .. })
+    ));
     Ok(())
 }
