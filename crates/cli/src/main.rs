@@ -435,6 +435,10 @@ struct RenderArgs {
     /// objects at 24 views). For quick looks and long sweeps.
     #[arg(long)]
     no_refine: bool,
+    /// Render from the model as reconstructed, a shell, instead of the solid it encloses
+    /// (rays that slip through a gap in the shell then meet its far side).
+    #[arg(long)]
+    no_fill: bool,
 }
 
 /// Angles from `from` to `to` (included when the steps land on it) by `step`, degrees: the
@@ -1633,6 +1637,9 @@ fn render(a: RenderArgs) -> Result<()> {
     let mut params = aibr::render::RenderParams::default();
     if a.no_refine {
         params.refine = None;
+    }
+    if a.no_fill {
+        params.fill = None;
     }
     let renderer = aibr::renderer_with(&views, &rec.model, params)?;
     let calibration = session.calibration()?;

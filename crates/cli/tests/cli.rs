@@ -269,6 +269,10 @@ fn reconstruct_and_render_a_session() -> TestResult {
         changed > geometry / 2,
         "{changed} of {geometry} refined pixels changed"
     );
+    // From the shell as reconstructed instead of the solid it encloses.
+    let shell = dir.join("shell.png");
+    assert_success(&render(&[&view[..], &["--no-fill"]].concat(), &shell)?);
+    assert_eq!(image::open(&shell)?.to_rgb8().dimensions(), (640, 480));
 
     // A sweep renders every angle into a folder, the one at -33.5 as the single render did.
     let frames = dir.join("frames");
