@@ -60,16 +60,13 @@ impl VoxelModel {
             .for_each(|w, &o| *w |= o);
         let outside = outside_of(&walls);
         let mut out = self.clone();
-        Zip::from(&mut out.occupied)
-            .and(&mut out.colour)
-            .and(&walls)
-            .and(&outside)
-            .for_each(|o, c, &w, &air| {
-                if !*o && (w || !air) {
-                    *o = true;
-                    *c = FILL_COLOUR;
-                }
-            });
+        let cells = out.occupied.iter_mut().zip(out.colour.iter_mut());
+        for (((o, c), &w), &air) in cells.zip(walls.iter()).zip(&outside) {
+            if !*o && (w || !air) {
+                *o = true;
+                *c = FILL_COLOUR;
+            }
+        }
         out
     }
 }
@@ -103,30 +100,35 @@ fn sweep(cells: &mut Array3<bool>, axis: Axis, radius: usize, dilate: bool, clos
 
 /// The empty cells of `walls` (`[[k, j, i]]`) reachable through faces from an empty cell on
 /// the array's sides (`i`, `j` at either end) or top (`k` last).
-fn outside_of(walls: &Array3<bool>) -> Array3<bool> {
+/// Cells by their index `(k * ny + j) * nx + i`, the arrays' logical order.
+fn outside_of(walls: &Array3<bool>) -> Vec<bool> {
     let (nz, ny, nx) = walls.dim();
-    let mut outside = Array3::from_elem(walls.dim(), false);
-    let mut stack: Vec<[usize; 3]> = Vec::new();
-    for ((k, j, i), &w) in walls.indexed_iter() {
+    let walls: Vec<bool> = walls.iter().copied().collect();
+    let mut outside = vec![false; walls.len()];
+    let mut stack: Vec<usize> = Vec::new();
+    for (n, &w) in walls.iter().enumerate() {
+        let (i, j, k) = (n % nx, n / nx % ny, n / (nx * ny));
         let border = i == 0 || j == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz;
         if border && !w {
-            outside[[k, j, i]] = true;
-            stack.push([k, j, i]);
+            outside[n] = true;
+            stack.push(n);
         }
     }
-    while let Some([k, j, i]) = stack.pop() {
+    let layer = nx * ny;
+    while let Some(n) = stack.pop() {
+        let (i, j, k) = (n % nx, n / nx % ny, n / layer);
         let neighbours = [
-            (k > 0).then(|| [k - 1, j, i]),
-            (k + 1 < nz).then(|| [k + 1, j, i]),
-            (j > 0).then(|| [k, j - 1, i]),
-            (j + 1 < ny).then(|| [k, j + 1, i]),
-            (i > 0).then(|| [k, j, i - 1]),
-            (i + 1 < nx).then(|| [k, j, i + 1]),
+            (k > 0).then(|| n - layer),
+            (k + 1 < nz).then(|| n + layer),
+            (j > 0).then(|| n - nx),
+            (j + 1 < ny).then(|| n + nx),
+            (i > 0).then(|| n - 1),
+            (i + 1 < nx).then(|| n + 1),
         ];
-        for n in neighbours.into_iter().flatten() {
-            if !walls[n] && !outside[n] {
-                outside[n] = true;
-                stack.push(n);
+        for m in neighbours.into_iter().flatten() {
+            if !walls[m] && !outside[m] {
+                outside[m] = true;
+                stack.push(m);
             }
         }
     }
@@ -235,7 +237,7 @@ mod tests {
             let closed = plain_closing(&model.occupied, closing);
             let outside = outside_of(&closed);
             for ((k, j, i), &o) in filled.occupied.indexed_iter() {
-                let expected = closed[[k, j, i]] || !outside[[k, j, i]];
+                let expected = closed[[k, j, i]] || !outside[(k * 10 + j) * 10 + i];
                 prop_assert_eq!(o, expected, "voxel {:?}", [i, j, k]);
             }
         }
