@@ -435,8 +435,8 @@ struct RenderArgs {
     /// objects at 24 views). For quick looks and long sweeps.
     #[arg(long)]
     no_refine: bool,
-    /// Render from the model as reconstructed, a shell, instead of the solid it encloses
-    /// (rays that slip through a gap in the shell then meet its far side).
+    /// Render from the model as reconstructed, a shell with gaps, instead of the shell closed
+    /// and filled (rays through a gap then meet what lies behind it).
     #[arg(long)]
     no_fill: bool,
 }

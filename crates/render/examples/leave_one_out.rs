@@ -6,7 +6,7 @@
 //! `aibr_camera::fit_ring`; silhouettes by the README's recipe, clipped to the projection of
 //! the README's bounding box (templeRing's box is built in). Cameras are not all above
 //! the object's box, so the model is made by space carving. `FILL=0` renders from the model
-//! as given instead of the solid it encloses ([`RenderParams::fill`]).
+//! as given instead of closed and filled ([`RenderParams::fill`]).
 
 use aibr_camera::readers::read_middlebury_par;
 use aibr_camera::{Aabb, ImageSize, fit_ring};

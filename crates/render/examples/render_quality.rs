@@ -11,7 +11,7 @@
 //! coloring's default criterion.
 //! `REFINE=0` turns the renderer's depth refinement off, `REFINE=front:back:steps:radius`
 //! sets it (voxels, voxels, depths, pixels). `FILL=0` renders from the model as given instead
-//! of the solid it encloses, `FILL=N` fills it with a closing of `N` voxels
+//! of closed and filled, `FILL=N` closes it with a cube of `2N + 1` voxels
 //! ([`RenderParams::fill`]). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the model first.
 //! `GRID=N` reconstructs on an `N`^3 grid instead of 128^3.
 

@@ -1,8 +1,8 @@
 //! Depth-driven image-based rendering for turntable captures, and image metrics.
 //!
 //! - [`Renderer`]: renders a virtual camera from captured views plus a voxel model
-//!   (section 2.2 of the paper): per pixel the model (by default the solid its shell
-//!   encloses, [`RenderParams::fill`]) is ray cast for the surface point, and
+//!   (section 2.2 of the paper): per pixel the model (by default closed and filled,
+//!   [`RenderParams::fill`]) is ray cast for the surface point, and
 //!   the captured rays through it are blended with unstructured-lumigraph weights (Buehler et
 //!   al. 2001), skipping sources that do not see the point. By default each pixel's depth is
 //!   then refined near the model's surface where the two nearest sources agree best

@@ -38,11 +38,11 @@ pub struct RenderParams {
     /// Refine each pixel's depth near the model's surface by photo-consistency (default on,
     /// with [`DepthRefinement::default`]; `None` renders at the model's surface).
     pub refine: Option<DepthRefinement>,
-    /// Render from the solid the model encloses, [`VoxelModel::filled`] with this closing
-    /// (default `Some(1)`: gaps in the model's shell up to about two voxels wide bridged;
-    /// at most 8). A voxel coloring model is a shell with an empty inside; a ray that slips
-    /// through a gap in it would meet the far side's inner face. `None` renders from the
-    /// model as given.
+    /// Render from the model closed and filled, [`VoxelModel::filled`] with this closing
+    /// (default `Some(1)`: gaps in the model's shell up to about two voxels wide bridged, and
+    /// what the shell then encloses filled; at most 8). A voxel coloring model is a shell
+    /// with gaps and an empty inside; a ray through a gap meets what lies behind, such as the
+    /// far side's inner face. `None` renders from the model as given.
     pub fill: Option<usize>,
 }
 
@@ -300,7 +300,7 @@ fn pixel_ray(camera: &Camera, rot: &Rotation3<f64>, u: usize, v: usize) -> Optio
 
 /// Renders novel views from captured views and a voxel model.
 ///
-/// By default rays are cast into the solid the model's shell encloses, not into the shell
+/// By default rays are cast into the model closed and filled, not into the shell as given
 /// ([`RenderParams::fill`]). Per pixel: the model is ray cast (3D DDA) for the surface point;
 /// each candidate source that sees the point (its own depth, splatted from the model at
 /// set-up, is not nearer by more than the tolerance) gets the unstructured-lumigraph penalty
@@ -316,7 +316,7 @@ fn pixel_ray(camera: &Camera, rot: &Rotation3<f64>, u: usize, v: usize) -> Optio
 /// surface at the depth of the object centre (or, beside the model's outline, at the nearest
 /// surface voxel's depth), so the image degrades like a light field instead of showing holes.
 pub struct Renderer<'a> {
-    /// The model rays are cast into: the caller's, or the solid it encloses
+    /// The model rays are cast into: the caller's, or it closed and filled
     /// ([`RenderParams::fill`]).
     model: Cow<'a, VoxelModel>,
     sources: Vec<Source>,

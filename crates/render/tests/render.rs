@@ -371,7 +371,7 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
         virtual_camera.depth_of(&ray.at(far.t))
     );
     assert_eq!(view.rgb.get_pixel(x, y), intact.rgb.get_pixel(x, y));
-    // Filled (the default closing), the ray meets the solid at the wall itself.
+    // Closed and filled (the default), the ray meets the wall itself.
     let filled = RenderParams {
         fill: Some(1),
         ..params

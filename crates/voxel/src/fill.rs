@@ -1,11 +1,13 @@
-//! The solid a surface model encloses: [`VoxelModel::filled`].
+//! A surface model closed and filled: [`VoxelModel::filled`].
 //!
-//! Voxel coloring keeps the voxels its views test, a shell one or two voxels thick; the
-//! inside was never seen and stays empty. A renderer that casts rays into such a shell
-//! meets the far side's inner face wherever a ray slips through a gap in the near side (a
-//! voxel left out by the visibility pass, two voxels that touch only at an edge), a depth
-//! far behind the surface. Filling what the shell encloses stops those rays near the
-//! surface they went through.
+//! Voxel coloring keeps the voxels its views test, a shell one or two voxels thick with an
+//! empty inside, and the shell has gaps (voxels inconsistent in a few views, or left out by
+//! the visibility pass). A renderer that casts rays into it meets, through a gap, whatever
+//! lies behind: the far side's inner face, a depth far behind the surface. A morphological
+//! closing bridges gaps up to about two voxels wide, and what the closed shell encloses is
+//! filled. On the synthetic catalogue the closing does nearly all of it: those shells are
+//! open at the foot of their walls, so little is enclosed (`lambertian` from 24 views at
+//! 128^3: 5,202 voxels added to 26,707, 279 of them inside; `docs/render.md`).
 
 use crate::grid::VoxelModel;
 use ndarray::{Array3, Axis, Zip};
@@ -14,7 +16,7 @@ use ndarray::{Array3, Axis, Zip};
 pub const FILL_COLOUR: [u8; 3] = [128; 3];
 
 impl VoxelModel {
-    /// This model with the volume it encloses filled.
+    /// This model closed, with the volume it then encloses filled.
     ///
     /// 1. The occupied voxels are closed morphologically with a cube of `2 * closing + 1`
     ///    voxels (dilated, then eroded), which bridges gaps in the shell up to about

@@ -15,8 +15,8 @@
 //!   but not for rendering (see its module);
 //! - [`space_carving`] (Kutulakos and Seitz), multi-sweep, for rigs whose cameras are not all
 //!   above the object;
-//! - [`VoxelModel::filled`]: the solid a model's shell encloses (voxel coloring keeps only
-//!   the voxels its views test; a renderer casting rays into the shell wants the inside);
+//! - [`VoxelModel::filled`]: a model's shell closed (gaps bridged) and what it encloses
+//!   filled, for renderers that cast rays into voxel coloring's hollow, gappy shells;
 //! - [`planar_faces`]: a model's large flat faces, whose planes a planner can aim views at
 //!   (a face seen only at a slant comes out a few voxels too fat);
 //! - [`foreground`] masks from a dark background, [`metrics`] against ground truth, and
