@@ -269,7 +269,7 @@ fn reconstruct_and_render_a_session() -> TestResult {
         changed > geometry / 2,
         "{changed} of {geometry} refined pixels changed"
     );
-    // From the shell as reconstructed instead of the solid it encloses.
+    // From the shell as reconstructed instead of closed and filled.
     let shell = dir.join("shell.png");
     assert_success(&render(&[&view[..], &["--no-fill"]].concat(), &shell)?);
     assert_eq!(image::open(&shell)?.to_rgb8().dimensions(), (640, 480));

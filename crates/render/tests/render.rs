@@ -335,7 +335,7 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
             })
         })
         .collect::<Result<Vec<_>, aibr_camera::Error>>()?;
-    // The hollow cube as given: the fill would seal the tunnel (below).
+    // The hollow cube as given: the fill would seal the tunnel.
     let params = RenderParams {
         refine: None,
         fill: None,
@@ -359,7 +359,7 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
             .raycast(&ray.origin, &ray.direction)
             .ok_or("through")?;
     }
-    let view = Renderer::new(&holed, sources.clone(), params)?.render(&virtual_camera)?;
+    let view = Renderer::new(&holed, sources, params)?.render(&virtual_camera)?;
     assert_eq!(view.coverage_at(x, y), Coverage::Geometry);
     let (d0, d1) = (
         intact.depth.get_pixel(x, y).0[0],
@@ -371,17 +371,6 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
         virtual_camera.depth_of(&ray.at(far.t))
     );
     assert_eq!(view.rgb.get_pixel(x, y), intact.rgb.get_pixel(x, y));
-    // Closed and filled (the default), the ray meets the wall itself.
-    let filled = RenderParams {
-        fill: Some(1),
-        ..params
-    };
-    let view = Renderer::new(&holed, sources, filled)?.render(&virtual_camera)?;
-    let d2 = view.depth.get_pixel(x, y).0[0];
-    assert!(
-        ((d2 - d0) as f64).abs() < 1.5 * voxel,
-        "depth {d2} against {d0}"
-    );
     Ok(())
 }
 
