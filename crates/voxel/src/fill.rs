@@ -102,8 +102,8 @@ fn sweep(cells: &mut Array3<bool>, axis: Axis, radius: usize, dilate: bool, clos
 }
 
 /// The empty cells of `walls` (`[[k, j, i]]`) reachable through faces from an empty cell on
-/// the array's sides (`i`, `j` at either end) or top (`k` last).
-/// Cells by their index `(k * ny + j) * nx + i`, the arrays' logical order.
+/// the array's sides (`i`, `j` at either end) or top (`k` last): a flag per cell, in the
+/// array's logical order (cell `(k * ny + j) * nx + i`).
 fn outside_of(walls: &Array3<bool>) -> Vec<bool> {
     let (nz, ny, nx) = walls.dim();
     let walls: Vec<bool> = walls.iter().copied().collect();
