@@ -12,7 +12,8 @@
 //! - [`refine_tops`], an optional pass after voxel coloring: each upward-facing surface voxel
 //!   moves down its column to where its views' colours agree best, which a sweep's threshold
 //!   cannot find (a voxel floating a layer over a textured top passes it); better geometry,
-//!   but not for rendering (see its module);
+//!   with pits that cost renders unless its steps are walled, which costs some of the
+//!   geometry back (see its module);
 //! - [`space_carving`] (Kutulakos and Seitz), multi-sweep, for rigs whose cameras are not all
 //!   above the object;
 //! - [`VoxelModel::filled`]: a model's shell closed (gaps bridged) and what it encloses
