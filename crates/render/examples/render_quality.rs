@@ -12,7 +12,8 @@
 //! `REFINE=0` turns the renderer's depth refinement off, `REFINE=front:back:steps:radius`
 //! sets it (voxels, voxels, depths, pixels). `FILL=0` renders from the model as given instead
 //! of closed and filled, `FILL=N` closes it with a cube of `2N + 1` voxels
-//! ([`RenderParams::fill`]). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the model first.
+//! ([`RenderParams::fill`]). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the model first,
+//! `TOPS=walls` the same with its steps walled ([`aibr_voxel::TopRefinement::walls`]).
 //! `GRID=N` reconstructs on an `N`^3 grid instead of 128^3.
 
 use aibr_camera::Angle;
@@ -66,8 +67,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ..ColoringParams::default()
             };
             let mut model = voxel_coloring(&grid, &views, &coloring)?.model;
-            if std::env::var("TOPS").is_ok_and(|v| v == "1") {
-                aibr_voxel::refine_tops(&mut model, &views, &Default::default())?;
+            match std::env::var("TOPS").as_deref() {
+                Ok("1") => {
+                    aibr_voxel::refine_tops(&mut model, &views, &Default::default())?;
+                }
+                Ok("walls") => {
+                    let walls = aibr_voxel::TopRefinement {
+                        walls: true,
+                        ..Default::default()
+                    };
+                    aibr_voxel::refine_tops(&mut model, &views, &walls)?;
+                }
+                Ok(other) => return Err(format!("TOPS={other}: expected 1 or walls").into()),
+                Err(_) => {}
             }
             if std::env::var("TRUEMODEL").is_ok() {
                 // Diagnostic: the true scene voxelised (centre inside an object).

@@ -9,7 +9,8 @@
 //! replaces the uniform views (for instance the `pans_deg` of an `aibr eval --json`
 //! checkpoint; `VIEWS` is then ignored). `REFINE=1` runs [`aibr_voxel::refine_tops`] with its
 //! defaults on each model before scoring it, `REFINE=MARGIN:RATIO:DEPTH` with those
-//! [`aibr_voxel::TopRefinement`] fields.
+//! [`aibr_voxel::TopRefinement`] fields; `WALLS=1` walls the steps the refinement leaves
+//! ([`aibr_voxel::TopRefinement::walls`]).
 
 mod common;
 
@@ -37,7 +38,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|---|");
     let refine = match std::env::var("REFINE") {
         Err(_) => None,
-        Ok(spec) => Some(refinement(&spec)?),
+        Ok(spec) => Some(TopRefinement {
+            walls: std::env::var("WALLS").is_ok_and(|w| w == "1"),
+            ..refinement(&spec)?
+        }),
     };
     for name in &names {
         let scene = catalogue::by_name(name)?;
