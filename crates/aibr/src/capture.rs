@@ -328,7 +328,8 @@ pub fn reconstruct_loaded(
 /// [`reconstruct_loaded`], then [`aibr_voxel::refine_tops`] on the model with `tops`: the
 /// upward-facing surface moved down to where the views agree best. Better geometry (on the
 /// synthetic `head`, 2.99 -> 1.23 voxels), but gaps where the sweep's fillets hid the
-/// surface, which cost renders; the capture loop and the renderer do not use it
+/// surface, which cost renders unless [`TopRefinement::walls`] closes them (which costs
+/// accuracy: `head` 2.02 voxels); the capture loop and the renderer do not use it
 /// (`docs/voxel.md`, "Refining the tops").
 pub fn reconstruct_refined(
     session: &Session,

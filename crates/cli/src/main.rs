@@ -356,11 +356,17 @@ struct ReconstructArgs {
     sample_inset: Option<f32>,
     /// After the reconstruction, move the upward-facing surface down to where the views
     /// agree best (`aibr_voxel::refine_tops`, its defaults): on the synthetic `head`, 2.99 ->
-    /// 1.23 voxels of accuracy at 128^3 from 48 views. For the geometry only: it leaves gaps
-    /// where the sweep's fillets hid the surface, which cost novel views, and `aibr render`
-    /// does not use it (`docs/voxel.md`, "Refining the tops").
+    /// 1.23 voxels of accuracy at 128^3 from 48 views. It leaves gaps where the sweep's
+    /// fillets hid the surface (see `--walls`); `aibr render` does not use it (`docs/voxel.md`,
+    /// "Refining the tops").
     #[arg(long)]
     refine_tops: bool,
+    /// With `--refine-tops`: wall the steps the moved tops leave, so the model stays as
+    /// closed as the sweep's (its silhouettes and the views rendered from it are then as good
+    /// as the sweep's), at a cost in accuracy where columns beside them did not move (`head`:
+    /// 2.02 voxels instead of 1.23; `docs/voxel.md`, "Walls for the steps").
+    #[arg(long, requires = "refine_tops")]
+    walls: bool,
     /// Print a machine-readable summary on standard output.
     #[arg(long)]
     json: bool,
@@ -1547,7 +1553,10 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
             &views,
             a.grid,
             &coloring,
-            &TopRefinement::default(),
+            &TopRefinement {
+                walls: a.walls,
+                ..TopRefinement::default()
+            },
         )?;
         (rec, algorithm, Some(stats))
     } else {
@@ -1581,6 +1590,7 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
                     "moved": r.moved,
                     "lone": r.lone,
                     "cleared": r.cleared,
+                    "walled": r.walled,
                 })),
                 "timings_ms": {"coloring_ms": coloring_ms},
             }))?
@@ -1594,8 +1604,8 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
         );
         if let Some(r) = refined {
             println!(
-                "tops refined: {} of {} judged tops moved down, {} voxels cleared",
-                r.moved, r.judged, r.cleared
+                "tops refined: {} of {} judged tops moved down, {} voxels cleared, {} walled",
+                r.moved, r.judged, r.cleared, r.walled
             );
         }
     }

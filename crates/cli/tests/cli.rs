@@ -216,6 +216,20 @@ fn reconstruct_and_render_a_session() -> TestResult {
     let net = refined["voxels"].as_i64().unwrap_or(0) - summary["voxels"].as_i64().unwrap_or(0);
     assert!(count("moved") > 0, "{refined}");
     assert!(-(count("cleared") as i64) <= net && net < 0, "{refined}");
+    assert_eq!(count("walled"), 0, "{refined}");
+    // The same moves with their steps walled: the walls only add voxels.
+    let walled = summary_with(&["--refine-tops", "--walls"])?;
+    let walls = walled["refine_tops"]["walled"].as_u64().unwrap_or(0);
+    assert_eq!(
+        walled["refine_tops"]["moved"],
+        refined["refine_tops"]["moved"]
+    );
+    assert_eq!(
+        walled["voxels"].as_u64(),
+        refined["voxels"].as_u64().map(|v| v + walls),
+        "{walled}"
+    );
+    assert!(refused(&reconstruct(&["--walls"])?, "--refine-tops"));
 
     // `aibr render` of the session with `args`, writing to `to`.
     let render = |args: &[&str], to: &Path| {
