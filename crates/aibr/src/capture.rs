@@ -283,6 +283,9 @@ fn masks_of(views: &[LoadedView]) -> Result<Vec<GrayImage>> {
         .collect()
 }
 
+/// The name [`reconstruct_views`] gives voxel coloring.
+pub(crate) const VOXEL_COLORING: &str = "voxel coloring";
+
 /// Reconstructs a model from loaded views: voxel coloring with `coloring` where every camera
 /// is above the volume, space carving otherwise. Returns the reconstruction and the
 /// algorithm's name.
@@ -296,7 +299,7 @@ pub fn reconstruct_views(
     let grid = VoxelGrid::with_resolution(*volume, grid)?;
     let vs = voxel_views(views, masks);
     if check_cameras_above(&grid, &vs).is_ok() {
-        Ok((voxel_coloring(&grid, &vs, coloring)?, "voxel coloring"))
+        Ok((voxel_coloring(&grid, &vs, coloring)?, VOXEL_COLORING))
     } else {
         Ok((
             space_carving(&grid, &vs, &CarvingParams::default())?,

@@ -10,10 +10,12 @@ use aibr_camera::{Angle, Camera};
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
 use aibr_scene::{GeometryReference, RenderOptions, Scene};
 use aibr_voxel::metrics::{GeometryScore, geometry_score};
-use aibr_voxel::{ColoringParams, VoxelGrid, VoxelModel, visual_hull};
+use aibr_voxel::{ColoringParams, TopRefinement, VoxelGrid, VoxelModel, refine_tops, visual_hull};
 use image::{GrayImage, RgbImage};
 
-use crate::capture::{CaptureParams, Strategy, capture, reconstruct_views, voxel_views};
+use crate::capture::{
+    CaptureParams, Strategy, VOXEL_COLORING, capture, reconstruct_views, voxel_views,
+};
 use crate::error::{Error, Result};
 use crate::replay::ReplayRig;
 use crate::rig::{Calibration, FrameSource, SimRig, Turntable};
@@ -135,6 +137,11 @@ pub enum EvalModel {
     /// the cameras are not all above the volume): the system as it runs.
     #[default]
     Reconstructed,
+    /// The reconstruction with its upward-facing surface refined and the refinement's steps
+    /// walled ([`aibr_voxel::refine_tops`] with [`aibr_voxel::TopRefinement::walls`]): the
+    /// geometry a renderer could use instead of the sweep's (`docs/voxel.md`, "Walls for the
+    /// steps"). Only where voxel coloring made the model; a space-carved one is used as it is.
+    Refined,
     /// The visual hull of the views' object masks: geometry from silhouettes alone.
     VisualHull,
     /// The rig's true geometry voxelised on the same grid ([`EvalRig::true_geometry`];
@@ -144,10 +151,12 @@ pub enum EvalModel {
 }
 
 impl EvalModel {
-    /// Its name on the command line and in reports: `reconstructed`, `hull`, `truth`.
+    /// Its name on the command line and in reports: `reconstructed`, `refined`, `hull`,
+    /// `truth`.
     pub fn name(self) -> &'static str {
         match self {
             EvalModel::Reconstructed => "reconstructed",
+            EvalModel::Refined => "refined",
             EvalModel::VisualHull => "hull",
             EvalModel::Truth => "truth",
         }
@@ -366,6 +375,7 @@ pub fn evaluate_rig<R: EvalRig>(
     }
     let geometry = match params.model {
         EvalModel::Reconstructed => Geometry::Reconstructed,
+        EvalModel::Refined => Geometry::Refined,
         EvalModel::VisualHull => Geometry::VisualHull,
         EvalModel::Truth => {
             Geometry::Truth(rig.true_geometry().ok_or_else(|| Error::InvalidParameter {
@@ -542,6 +552,7 @@ type TruthCache = HashMap<u64, (RgbImage, GrayImage)>;
 #[derive(Clone, Copy)]
 enum Geometry<'a> {
     Reconstructed,
+    Refined,
     VisualHull,
     Truth(&'a Scene),
 }
@@ -573,16 +584,23 @@ fn measure<R: EvalRig>(
         })
         .collect::<Result<_>>()?;
     let model = match geometry {
-        Geometry::Reconstructed => {
-            reconstruct_views(
+        Geometry::Reconstructed | Geometry::Refined => {
+            let (rec, algorithm) = reconstruct_views(
                 views,
                 &masks,
                 &session.volume()?,
                 params.grid,
                 &ColoringParams::default(),
-            )?
-            .0
-            .model
+            )?;
+            let mut model = rec.model;
+            if matches!(geometry, Geometry::Refined) && algorithm == VOXEL_COLORING {
+                let walled = TopRefinement {
+                    walls: true,
+                    ..TopRefinement::default()
+                };
+                refine_tops(&mut model, &voxel_views(views, &masks), &walled)?;
+            }
+            model
         }
         Geometry::VisualHull => {
             let grid = VoxelGrid::with_resolution(session.volume()?, params.grid)?;

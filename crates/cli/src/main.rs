@@ -275,8 +275,8 @@ struct EvalArgs {
     #[arg(long, default_value_t = 1.0)]
     step_deg: f64,
     /// The geometry the novel views are rendered from: the reconstruction (the system as it
-    /// runs), the visual hull of the object masks, or the true geometry (synthetic rigs
-    /// only). The capture is the same whichever it is, so comparing them on one --work
+    /// runs), the reconstruction with its tops refined and their steps walled, the visual hull
+    /// of the object masks, or the true geometry (synthetic rigs only). The capture is the same whichever it is, so comparing them on one --work
     /// folder tells what the geometry costs apart from what the choice of views does.
     #[arg(long, value_enum, default_value = "reconstructed")]
     model: ModelArg,
@@ -317,6 +317,9 @@ enum StrategyArg {
 enum ModelArg {
     /// The voxel model reconstructed from the views.
     Reconstructed,
+    /// The reconstruction with its tops refined and their steps walled
+    /// (`aibr_voxel::refine_tops`).
+    Refined,
     /// The visual hull of the views' object masks.
     Hull,
     /// The true geometry, voxelised (synthetic rigs only): a diagnostic.
@@ -1139,6 +1142,7 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
 fn eval_model(m: ModelArg) -> EvalModel {
     match m {
         ModelArg::Reconstructed => EvalModel::Reconstructed,
+        ModelArg::Refined => EvalModel::Refined,
         ModelArg::Hull => EvalModel::VisualHull,
         ModelArg::Truth => EvalModel::Truth,
     }

@@ -792,6 +792,28 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
             "{rec_acc} {rec_comp}"
         );
     }
+    // The same sessions rendered from the reconstruction with its tops refined and walled:
+    // the same views, and models the pass changed.
+    let refined = small_eval_json(&[&budget[..], &["--model", "refined"]].concat(), &work)?;
+    assert_eq!(refined["model"], "refined");
+    let surface = |v: &serde_json::Value| -> Vec<(serde_json::Value, serde_json::Value)> {
+        v["results"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .flat_map(|r| r["checkpoints"].as_array().into_iter().flatten())
+            .map(|c| {
+                (
+                    c["pans_deg"].clone(),
+                    c["geometry"]["surface_voxels"].clone(),
+                )
+            })
+            .collect()
+    };
+    let (rec, refd) = (surface(&summary), surface(&refined));
+    assert_eq!(rec.len(), refd.len());
+    assert!(rec.iter().zip(&refd).all(|(a, b)| a.0 == b.0));
+    assert!(rec.iter().zip(&refd).any(|(a, b)| a.1 != b.1), "{refd:?}");
     // Its sessions were captured with the default planner: another width power on the same
     // folder is refused, naming the folder and the field, and leaves them as they were.
     let active = work.join("lambertian-active").join("session.json");
