@@ -276,8 +276,9 @@ struct EvalArgs {
     step_deg: f64,
     /// The geometry the novel views are rendered from: the reconstruction (the system as it
     /// runs), the reconstruction with its tops refined and their steps walled, the visual hull
-    /// of the object masks, or the true geometry (synthetic rigs only). The capture is the same whichever it is, so comparing them on one --work
-    /// folder tells what the geometry costs apart from what the choice of views does.
+    /// of the object masks, or the true geometry (synthetic rigs only). The capture is the
+    /// same whichever it is, so comparing them on one --work folder tells what the geometry
+    /// costs apart from what the choice of views does.
     #[arg(long, value_enum, default_value = "reconstructed")]
     model: ModelArg,
     /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
