@@ -53,40 +53,40 @@ fn setup(name: &str, n: usize, resolution: usize) -> Result<Setup, Box<dyn std::
         noise_sigma: 1.0 / 255.0,
         seed: 1,
     };
-    let (mut cameras, mut frames, mut images) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut sources, mut masks) = (Vec::new(), Vec::new());
     for s in scene.shoot(&pans, &options)? {
-        cameras.push(s.camera);
-        frames.push(s.frame);
-        images.push(s.image);
+        sources.push(SourceView {
+            camera: s.camera,
+            image: s.image,
+        });
+        masks.push(s.frame.mask);
     }
-    let views: Vec<View<'_>> = cameras
-        .iter()
-        .zip(&images)
-        .zip(&frames)
-        .map(|((camera, image), f)| View {
-            camera,
-            image,
-            mask: Some(&f.mask),
-        })
-        .collect();
     let model = voxel_coloring(
         &VoxelGrid::with_resolution(scene.bounds(), resolution)?,
-        &views,
+        &kernel_views(&sources, &masks),
         &ColoringParams::default(),
     )?
     .model;
-    let sources = cameras
-        .into_iter()
-        .zip(images)
-        .map(|(camera, image)| SourceView { camera, image })
-        .collect();
     Ok(Setup {
         scene,
         pans,
         sources,
-        masks: frames.into_iter().map(|f| f.mask).collect(),
+        masks,
         model,
     })
+}
+
+/// The shots as the voxel kernels take them: each source with its mask as silhouette.
+fn kernel_views<'a>(sources: &'a [SourceView], masks: &'a [image::GrayImage]) -> Vec<View<'a>> {
+    sources
+        .iter()
+        .zip(masks)
+        .map(|(source, mask)| View {
+            camera: &source.camera,
+            image: &source.image,
+            mask: Some(mask),
+        })
+        .collect()
 }
 
 fn masked_psnr(s: &Setup, r: &Renderer<'_>, pan: Angle) -> Result<f64, Box<dyn std::error::Error>> {
@@ -394,16 +394,7 @@ fn a_pinhole_in_the_model_does_not_show() -> TestResult {
 #[test]
 fn refined_tops_render_as_well_as_the_sweep_once_their_steps_are_walled() -> TestResult {
     let s = setup("lambertian", 24, 128)?;
-    let views: Vec<View<'_>> = s
-        .sources
-        .iter()
-        .zip(&s.masks)
-        .map(|(source, mask)| View {
-            camera: &source.camera,
-            image: &source.image,
-            mask: Some(mask),
-        })
-        .collect();
+    let views = kernel_views(&s.sources, &s.masks);
     let mut psnr = Vec::new();
     for walls in [None, Some(false), Some(true)] {
         let mut model = s.model.clone();
