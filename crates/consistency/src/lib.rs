@@ -15,7 +15,9 @@
 //!   replaces the middle. The capture loop aims at [`edge_on_pans`], the pans from which a
 //!   flat face of the model (`aibr_voxel::planar_faces`) is seen edge-on: a face seen only
 //!   at a slant comes out of voxel coloring a few voxels too fat, and a view in its plane
-//!   cuts that away.
+//!   cuts that away. [`plan_next_among`] plans for a turntable that reaches only some pans
+//!   (a replayed ring's recorded views): the reachable pan inside the chosen arc nearest
+//!   where the split would be, arcs holding none passed over.
 //! - [`foreground`]: masks from a dark background, or from the median backdrop of the views.
 //!
 //! ```
@@ -53,4 +55,5 @@ pub use error::{Error, Result};
 pub use estimator::{ConsistencyParams, PairScore, ring_pairs, score_pairs};
 pub use planner::{
     AIM_DONE_DEG, PlanParams, Proposal, TurntableLimits, edge_on_pans, plan_next, plan_next_aimed,
+    plan_next_among,
 };

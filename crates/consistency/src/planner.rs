@@ -176,6 +176,57 @@ pub fn plan_next_aimed(
     limits: &TurntableLimits,
     params: &PlanParams,
 ) -> Result<Option<Proposal>> {
+    plan(pans, scores, aims, None, limits, params)
+}
+
+/// [`plan_next_aimed`] for a turntable that reaches only the pans of `reachable`: a rig
+/// replaying a recorded ring returns recorded views only. The arcs are ranked as there; the
+/// proposal is the pan of `reachable` inside the chosen arc, inside the range and at least
+/// a step from every existing view, nearest to where [`plan_next_aimed`] would split it (an
+/// aim within reach, else the middle). An arc that holds no such pan is passed over, as an
+/// arc too short to split is: asking for its middle would bring back a view from another
+/// arc, and the arc would stay the worst, so every later request would too.
+///
+/// ```
+/// use aibr_camera::{Angle, PanRange};
+/// use aibr_consistency::{PairScore, PlanParams, TurntableLimits, plan_next_among};
+/// use image::GrayImage;
+///
+/// let limits = TurntableLimits::new(PanRange::full_turn(), Angle::from_degrees(0.1))?;
+/// let pans = [-90.0, 0.0, 30.0].map(Angle::from_degrees);
+/// let score = |a, b, score| PairScore {
+///     a, b, score, unexplained_pixels: 0, compared_pixels: 0,
+///     error_a: GrayImage::new(1, 1), error_b: GrayImage::new(1, 1),
+/// };
+/// let scores = [score(0, 1, 100.0), score(1, 2, 100.0)];
+/// // The wide arc ranks first, but nothing can be reached inside it.
+/// let reachable = [-100.0, 12.0, 20.0].map(Angle::from_degrees);
+/// let next = plan_next_among(&pans, &scores, &[], &reachable, &limits, &PlanParams::default())?
+///     .ok_or("nothing to split")?;
+/// assert_eq!(next.pair, (1, 2));
+/// assert_eq!(next.pan, Angle::from_degrees(12.0)); // the nearest to the middle, 15
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn plan_next_among(
+    pans: &[Angle],
+    scores: &[PairScore],
+    aims: &[Angle],
+    reachable: &[Angle],
+    limits: &TurntableLimits,
+    params: &PlanParams,
+) -> Result<Option<Proposal>> {
+    plan(pans, scores, aims, Some(reachable), limits, params)
+}
+
+/// [`plan_next_aimed`] with every whole step reachable (`None`), or [`plan_next_among`].
+fn plan(
+    pans: &[Angle],
+    scores: &[PairScore],
+    aims: &[Angle],
+    reachable: Option<&[Angle]>,
+    limits: &TurntableLimits,
+    params: &PlanParams,
+) -> Result<Option<Proposal>> {
     params.validate()?;
     let done = AIM_DONE_DEG.to_radians();
     let open_aims: Vec<Angle> = aims
@@ -202,28 +253,44 @@ pub fn plan_next_aimed(
         .collect();
     order.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.a.cmp(&y.1.a)));
     let step = limits.step.radians();
+    let far_enough = |pan: Angle| {
+        pans.iter()
+            .all(|p| pan.wrapped_difference(*p).radians().abs() >= step - 1e-9)
+    };
     for (_, s) in order {
         let (Some(pa), Some(gap)) = (pans.get(s.a), gap(s)) else {
             continue;
         };
-        let far_enough = |pan: Angle| {
-            pans.iter()
-                .all(|p| pan.wrapped_difference(*p).radians().abs() >= step - 1e-9)
-        };
-        // The aim nearest the middle within reach, as an offset from the arc's start.
+        // Offsets from the arc's start.
+        let offset = |pan: &Angle| (pan.radians() - pa.radians()).rem_euclid(std::f64::consts::TAU);
+        // The aim nearest the middle within reach.
         let reach = params.aim_reach * gap / 2.0;
-        let aimed = open_aims
+        let aim = open_aims
             .iter()
-            .map(|a| (a.radians() - pa.radians()).rem_euclid(std::f64::consts::TAU))
+            .map(offset)
             .filter(|o| *o > 0.0 && *o < gap && (o - gap / 2.0).abs() <= reach)
-            .min_by(|x, y| (x - gap / 2.0).abs().total_cmp(&(y - gap / 2.0).abs()))
-            .and_then(|o| {
-                let pan = limits.quantise(Angle::from_radians(pa.radians() + o));
-                limits.range.normalize(pan).filter(|p| far_enough(*p))
-            });
-        let middle = limits.quantise(Angle::from_radians(pa.radians() + gap / 2.0));
-        let Some(pan) = aimed.or_else(|| limits.range.normalize(middle).filter(|p| far_enough(*p)))
-        else {
+            .min_by(|x, y| (x - gap / 2.0).abs().total_cmp(&(y - gap / 2.0).abs()));
+        let pan = match reachable {
+            None => {
+                let at = |o: f64| {
+                    let pan = limits.quantise(Angle::from_radians(pa.radians() + o));
+                    limits.range.normalize(pan).filter(|p| far_enough(*p))
+                };
+                aim.and_then(at).or_else(|| at(gap / 2.0))
+            }
+            Some(reachable) => {
+                let target = aim.unwrap_or(gap / 2.0);
+                reachable
+                    .iter()
+                    .filter_map(|p| limits.range.normalize(*p))
+                    .filter(|p| far_enough(*p))
+                    .map(|p| (offset(&p), p))
+                    .filter(|(o, _)| *o > 0.0 && *o < gap)
+                    .min_by(|x, y| (x.0 - target).abs().total_cmp(&(y.0 - target).abs()))
+                    .map(|(_, p)| p)
+            }
+        };
+        let Some(pan) = pan else {
             continue;
         };
         return Ok(Some(Proposal {

@@ -3,8 +3,8 @@
 use aibr_camera::{Angle, Camera, CircularMotion, PanRange, TurntableAxis};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
-    AIM_DONE_DEG, ConsistencyParams, Error, PairScore, PlanParams, TurntableLimits, edge_on_pans,
-    plan_next, plan_next_aimed, ring_pairs, score_pairs,
+    AIM_DONE_DEG, ConsistencyParams, Error, PairScore, PlanParams, Proposal, TurntableLimits,
+    edge_on_pans, plan_next, plan_next_aimed, plan_next_among, ring_pairs, score_pairs,
 };
 use aibr_scene::{Frame, RenderOptions, catalogue};
 use aibr_voxel::{ColoringParams, PlanarFace, View, VoxelGrid, VoxelModel, voxel_coloring};
@@ -393,6 +393,54 @@ fn an_aim_near_the_middle_of_the_chosen_arc_draws_the_view() -> TestResult {
     Ok(())
 }
 
+/// Where [`plan_next_among`] splits, in degrees to a millionth (so that a pan compares with the
+/// figure it was given in), and which pair.
+type Split = Option<(f64, (usize, usize))>;
+
+#[test]
+fn among_reachable_pans_the_one_nearest_the_split_is_proposed() -> TestResult {
+    let limits = ptu_range_in_degrees()?;
+    let pans = [-90.0, 0.0, 30.0, 60.0].map(Angle::from_degrees);
+    // -90..0 ranks first (the widest), then 0..30, then 30..60.
+    let scores = [pair(0, 1, 100.0), pair(1, 2, 100.0), pair(2, 3, 50.0)];
+    let plan = PlanParams::default();
+    let degrees = |d: &[f64]| -> Vec<Angle> { d.iter().map(|d| Angle::from_degrees(*d)).collect() };
+    let split = |p: Option<Proposal>| -> Split {
+        p.map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
+    };
+    let among = |reachable: &[f64], aims: &[f64]| -> Result<Split, aibr_consistency::Error> {
+        let (reachable, aims) = (degrees(reachable), degrees(aims));
+        plan_next_among(&pans, &scores, &aims, &reachable, &limits, &plan).map(split)
+    };
+    // Anything reachable inside the widest arc: the pan nearest its middle, as it is (a
+    // recorded view need not lie on a whole step).
+    assert_eq!(
+        among(&[-80.0, -47.3, -20.0, 15.0], &[])?,
+        Some((-47.3, (0, 1)))
+    );
+    // Nothing inside it: the next arc, not a request that would bring back a view elsewhere.
+    assert_eq!(
+        among(&[-100.0, 12.0, 20.0, 45.0], &[])?,
+        Some((12.0, (1, 2)))
+    );
+    // Pans on an existing view, within a step of one, or outside the range do not count.
+    assert_eq!(
+        among(&[-90.0, 0.5, 29.2, 170.0, 45.0], &[])?,
+        Some((45.0, (2, 3)))
+    );
+    assert_eq!(among(&[-100.0, 70.0], &[])?, None);
+    // An aim within reach moves the target: the reachable pan nearest the aim.
+    assert_eq!(
+        among(&[-60.0, -45.0, -20.0], &[-28.0])?,
+        Some((-20.0, (0, 1)))
+    );
+    // With every whole step reachable, the plans agree with `plan_next_aimed`.
+    let steps: Vec<f64> = (-159..=159).map(f64::from).collect();
+    let aimed = plan_next_aimed(&pans, &scores, &[], &limits, &plan)?;
+    assert_eq!(among(&steps, &[])?, split(aimed));
+    Ok(())
+}
+
 proptest! {
     /// Whatever the scores and aims, a proposal is inside the range, a whole number of steps, and at
     /// least a step from every existing view.
@@ -422,6 +470,48 @@ proptest! {
             for q in &pans {
                 prop_assert!(p.pan.wrapped_difference(*q).radians().abs() >= limits.step.radians() - 1e-9);
             }
+        }
+    }
+
+    /// Among reachable pans, a proposal is one of them, inside the arc it splits and the
+    /// range, and at least a step from every existing view; and an arc is passed over only
+    /// when it holds no such pan (the proposal splits the best-ranked arc that does).
+    #[test]
+    fn proposals_among_reachable_pans_are_reachable(
+        mut degrees in prop::collection::vec(-159.0..159.0f64, 2..12),
+        step in 0.01..5.0f64,
+        raw_scores in prop::collection::vec(1.0..1000.0f64, 11),
+        reachable in prop::collection::vec(-170.0..170.0f64, 0..40),
+    ) {
+        degrees.sort_by(f64::total_cmp);
+        let range = PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0)).unwrap_or_default();
+        let Ok(limits) = TurntableLimits::new(range, Angle::from_degrees(step)) else {
+            return Err(TestCaseError::fail("limits refused"));
+        };
+        let pans: Vec<Angle> = degrees.iter().map(|d| Angle::from_degrees(*d)).collect();
+        let scores: Vec<PairScore> = (0..pans.len() - 1).map(|i| pair(i, i + 1, raw_scores[i])).collect();
+        let reachable: Vec<Angle> = reachable.iter().map(|d| Angle::from_degrees(*d)).collect();
+        let planned = plan_next_among(&pans, &scores, &[], &reachable, &limits, &PlanParams::default());
+        prop_assert!(planned.is_ok());
+        // The arcs with a usable pan inside, by rank (score times width cubed).
+        let usable = |i: usize| reachable.iter().any(|r| {
+            let d = r.radians();
+            d > pans[i].radians() && d < pans[i + 1].radians()
+                && d >= range.min().radians() && d <= range.max().radians()
+                && pans.iter().all(|q| (d - q.radians()).abs() >= limits.step.radians() - 1e-9)
+        });
+        let rank = |i: usize| raw_scores[i] * (pans[i + 1].radians() - pans[i].radians()).powi(3);
+        let best = (0..pans.len() - 1).filter(|&i| usable(i)).max_by(|&x, &y| rank(x).total_cmp(&rank(y)));
+        match planned {
+            Ok(Some(p)) => {
+                prop_assert!(reachable.contains(&p.pan));
+                let (a, b) = p.pair;
+                prop_assert!(p.pan.radians() > pans[a].radians() && p.pan.radians() < pans[b].radians());
+                prop_assert!(usable(a));
+                prop_assert!(best.is_some_and(|i| rank(i) == rank(a)), "{:?} against {:?}", a, best);
+            }
+            Ok(None) => prop_assert!(best.is_none()),
+            Err(_) => {}
         }
     }
 }
