@@ -7,7 +7,7 @@ use aibr_camera::{Aabb, Angle, CircularMotion, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
     ConsistencyParams, PairScore, PlanParams, TurntableLimits, edge_on_pans, plan_next_aimed,
-    score_pairs,
+    plan_next_among, score_pairs,
 };
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_voxel::{
@@ -402,8 +402,10 @@ pub fn renderer_with<'m>(
 /// 1. The initial views, uniform over the range (for the uniform strategy, all `max`).
 /// 2. Active: reconstruct every `refine_every` captures; score each arc between neighbouring
 ///    views; split the worst at its middle angle, or at a pan near it that sees a flat face
-///    of the model edge-on ([`CaptureParams::aim_reach`]); capture there. Stop at the budget,
-///    or when every arc is consistent or too short to split.
+///    of the model edge-on ([`CaptureParams::aim_reach`]); capture there. A rig that reaches
+///    only some pans ([`Turntable::reachable`], a replayed ring) is asked for the one inside
+///    that arc nearest that split, and an arc holding none is passed over. Stop at the budget,
+///    or when every arc is consistent, too short to split or holds nothing reachable.
 pub fn capture<R: Turntable + FrameSource>(
     rig: &mut R,
     session: &mut Session,
@@ -489,8 +491,13 @@ pub fn capture<R: Turntable + FrameSource>(
                 must_refine = false;
             }
             let pans = session.pans();
-            let Some(next) = plan_next_aimed(&pans, &scores, &aims, &limits, &params.plan())?
-            else {
+            let planned = match rig.reachable() {
+                Some(reachable) => {
+                    plan_next_among(&pans, &scores, &aims, &reachable, &limits, &params.plan())?
+                }
+                None => plan_next_aimed(&pans, &scores, &aims, &limits, &params.plan())?,
+            };
+            let Some(next) = planned else {
                 stopped_early = true;
                 break;
             };

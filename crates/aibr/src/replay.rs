@@ -295,6 +295,12 @@ impl Turntable for ReplayRig {
     fn step(&self) -> Angle {
         self.data.step
     }
+
+    /// The recorded views not yet returned.
+    fn reachable(&self) -> Option<Vec<Angle>> {
+        let unserved = self.data.views.iter().zip(&self.served);
+        Some(unserved.filter(|(_, s)| !**s).map(|(v, _)| v.pan).collect())
+    }
 }
 
 impl FrameSource for ReplayRig {

@@ -16,6 +16,12 @@ pub trait Turntable {
     fn range(&self) -> PanRange;
     /// The angle of one step.
     fn step(&self) -> Angle;
+    /// The pans a move can still reach, when the unit reaches only some: a
+    /// [`ReplayRig`](crate::ReplayRig) returns recorded views only, and the capture loop
+    /// then plans among them. `None` (the default) when any whole step of the range can.
+    fn reachable(&self) -> Option<Vec<Angle>> {
+        None
+    }
 }
 
 /// A captured frame, with its foreground mask when the source knows it.
@@ -71,6 +77,10 @@ impl<T: Turntable, C: FrameSource> Turntable for Rig<T, C> {
 
     fn step(&self) -> Angle {
         self.turntable.step()
+    }
+
+    fn reachable(&self) -> Option<Vec<Angle>> {
+        self.turntable.reachable()
     }
 }
 

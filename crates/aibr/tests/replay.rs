@@ -1,7 +1,7 @@
 //! The replay rig on Middlebury's templeRing: a ring of real views as turntable and camera.
 
 use aibr::camera::Angle;
-use aibr::{FrameSource, ReplayRig, Turntable};
+use aibr::{CaptureParams, FrameSource, Progress, ReplayRig, Strategy, Turntable};
 
 #[test]
 fn templering_replays_its_views() -> Result<(), Box<dyn std::error::Error>> {
@@ -42,6 +42,14 @@ fn templering_replays_its_views() -> Result<(), Box<dyn std::error::Error>> {
     // ...and never the same view twice: the next request for the same angle gets a neighbour.
     let again = rig.move_to(want)?;
     assert!(again != got);
+    // What is left to reach: the views not served, in their order.
+    let left: Vec<Angle> = rig
+        .views()
+        .iter()
+        .map(|v| v.pan)
+        .filter(|p| *p != got && *p != again)
+        .collect();
+    assert_eq!(rig.reachable(), Some(left));
 
     // The calibration's circle reproduces the recorded cameras closely (a real calibration's
     // scatter: well under a degree and a millimetre or two).
@@ -74,6 +82,41 @@ fn templering_replays_its_views() -> Result<(), Box<dyn std::error::Error>> {
     // A fresh rig forgets what was served.
     let mut fresh = rig.fresh();
     assert_eq!(fresh.move_to(want)?, got);
+    Ok(())
+}
+
+/// An active capture on the replay rig asks for recorded views only, so every view lands
+/// where the planner put it. templeRing's ring has no view between -76.6 and -30.6 degrees;
+/// the planner used to ask for the middle of that arc, which stayed the widest, and the rig
+/// served the views nearest it one after another.
+#[test]
+fn an_active_capture_on_a_replayed_ring_reaches_every_pan_it_plans()
+-> Result<(), Box<dyn std::error::Error>> {
+    let Some(dir) = aibr_testdata::dataset("middlebury-templeRing") else {
+        return Ok(());
+    };
+    let mut rig = ReplayRig::open(&dir)?;
+    let work = std::env::temp_dir().join(format!("aibr-replay-plan-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&work);
+    let params = CaptureParams {
+        strategy: Strategy::Active,
+        initial: 12,
+        max: 16,
+        grid: 48,
+        ..CaptureParams::default()
+    };
+    let calibration = rig.calibration();
+    let spec = format!("replay:{}", dir.display());
+    let mut session = aibr::new_session(&work, &spec, &rig, &calibration, &params)?;
+    let (mut planned, mut reached) = (Vec::new(), Vec::new());
+    aibr::capture(&mut rig, &mut session, &params, &mut |p| match p {
+        Progress::Planned { pan, .. } => planned.push(pan),
+        Progress::Captured { count, pan, .. } if count > params.initial => reached.push(pan),
+        _ => {}
+    })?;
+    let _ = std::fs::remove_dir_all(&work);
+    assert_eq!(planned.len(), params.max - params.initial);
+    assert_eq!(planned, reached);
     Ok(())
 }
 
