@@ -441,6 +441,19 @@ fn among_reachable_pans_the_one_nearest_the_split_is_proposed() -> TestResult {
     Ok(())
 }
 
+/// A PTU-46's range, the views at `degrees` (sorted here) and each neighbouring pair scored
+/// from `raw_scores` in turn.
+fn ring(degrees: &mut [f64], raw_scores: &[f64]) -> (PanRange, Vec<Angle>, Vec<PairScore>) {
+    degrees.sort_by(f64::total_cmp);
+    let range =
+        PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0)).unwrap_or_default();
+    let pans: Vec<Angle> = degrees.iter().map(|d| Angle::from_degrees(*d)).collect();
+    let scores = (1..pans.len())
+        .map(|i| pair(i - 1, i, raw_scores[i - 1]))
+        .collect();
+    (range, pans, scores)
+}
+
 proptest! {
     /// Whatever the scores and aims, a proposal is inside the range, a whole number of steps, and at
     /// least a step from every existing view.
@@ -452,13 +465,10 @@ proptest! {
         aims in prop::collection::vec(-200.0..200.0f64, 0..6),
         aim_reach in 0.0..=1.0f64,
     ) {
-        degrees.sort_by(f64::total_cmp);
-        let range = PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0)).unwrap_or_default();
+        let (range, pans, scores) = ring(&mut degrees, &raw_scores);
         let limits = TurntableLimits::new(range, Angle::from_degrees(step));
         prop_assert!(limits.is_ok());
         let Ok(limits) = limits else { return Ok(()) };
-        let pans: Vec<Angle> = degrees.iter().map(|d| Angle::from_degrees(*d)).collect();
-        let scores: Vec<PairScore> = (0..pans.len() - 1).map(|i| pair(i, i + 1, raw_scores[i])).collect();
         let aims: Vec<Angle> = aims.iter().map(|d| Angle::from_degrees(*d)).collect();
         let plan = PlanParams { aim_reach, ..PlanParams::default() };
         let planned = plan_next_aimed(&pans, &scores, &aims, &limits, &plan);
@@ -483,13 +493,10 @@ proptest! {
         raw_scores in prop::collection::vec(1.0..1000.0f64, 11),
         reachable in prop::collection::vec(-170.0..170.0f64, 0..40),
     ) {
-        degrees.sort_by(f64::total_cmp);
-        let range = PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0)).unwrap_or_default();
+        let (range, pans, scores) = ring(&mut degrees, &raw_scores);
         let Ok(limits) = TurntableLimits::new(range, Angle::from_degrees(step)) else {
             return Err(TestCaseError::fail("limits refused"));
         };
-        let pans: Vec<Angle> = degrees.iter().map(|d| Angle::from_degrees(*d)).collect();
-        let scores: Vec<PairScore> = (0..pans.len() - 1).map(|i| pair(i, i + 1, raw_scores[i])).collect();
         let reachable: Vec<Angle> = reachable.iter().map(|d| Angle::from_degrees(*d)).collect();
         let planned = plan_next_among(&pans, &scores, &[], &reachable, &limits, &PlanParams::default());
         prop_assert!(planned.is_ok());
@@ -508,7 +515,7 @@ proptest! {
                 let (a, b) = p.pair;
                 prop_assert!(p.pan.radians() > pans[a].radians() && p.pan.radians() < pans[b].radians());
                 prop_assert!(usable(a));
-                prop_assert!(best.is_some_and(|i| rank(i) == rank(a)), "{:?} against {:?}", a, best);
+                prop_assert!(best.is_some_and(|i| rank(a) >= rank(i) * (1.0 - 1e-9)), "{:?} against {:?}", a, best);
             }
             Ok(None) => prop_assert!(best.is_none()),
             Err(_) => {}
