@@ -241,7 +241,8 @@ struct EvalArgs {
     /// sim:SCENE@DEGREES with the scene turned that far on the turntable, -180 to 180, to see
     /// how much a result owes to where the object happens to stand), or replay:DIR, a
     /// Middlebury-style ring folder (*_par.txt and images) whose recorded views play turntable
-    /// and camera: the views never captured are the truth.
+    /// and camera: active capture asks only for views not yet taken, and the views never
+    /// captured are the truth.
     #[arg(long, default_value = "sim:mirror")]
     rig: String,
     /// Views captured uniformly first.
