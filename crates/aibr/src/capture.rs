@@ -6,8 +6,8 @@ use std::time::Instant;
 use aibr_camera::{Aabb, Angle, CircularMotion, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
-    ConsistencyParams, PairScore, PlanParams, TurntableLimits, edge_on_pans, plan_next_aimed,
-    plan_next_among, score_pairs,
+    ConsistencyParams, PairScore, PlanParams, TurntableLimits, edge_on_pans, plan_next_among,
+    score_pairs,
 };
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_voxel::{
@@ -491,12 +491,15 @@ pub fn capture<R: Turntable + FrameSource>(
                 must_refine = false;
             }
             let pans = session.pans();
-            let planned = match rig.reachable() {
-                Some(reachable) => {
-                    plan_next_among(&pans, &scores, &aims, &reachable, &limits, &params.plan())?
-                }
-                None => plan_next_aimed(&pans, &scores, &aims, &limits, &params.plan())?,
-            };
+            let reachable = rig.reachable();
+            let planned = plan_next_among(
+                &pans,
+                &scores,
+                &aims,
+                reachable.as_deref(),
+                &limits,
+                &params.plan(),
+            )?;
             let Some(next) = planned else {
                 stopped_early = true;
                 break;

@@ -176,14 +176,15 @@ pub fn plan_next_aimed(
     limits: &TurntableLimits,
     params: &PlanParams,
 ) -> Result<Option<Proposal>> {
-    plan(pans, scores, aims, None, limits, params)
+    plan_next_among(pans, scores, aims, None, limits, params)
 }
 
-/// [`plan_next_aimed`] for a turntable that reaches only the pans of `reachable`: a rig
-/// replaying a recorded ring returns recorded views only. The arcs are ranked as there; the
-/// proposal is the pan of `reachable` inside the chosen arc, inside the range and at least
-/// a step from every existing view, nearest to where [`plan_next_aimed`] would split it (an
-/// aim within reach, else the middle). An arc that holds no such pan is passed over, as an
+/// [`plan_next_aimed`] for a turntable that reaches only the pans of `reachable` (`None`: every
+/// whole step of the range, which is [`plan_next_aimed`]): a rig replaying a recorded ring
+/// returns recorded views only. The arcs are ranked as there; the proposal is the pan of
+/// `reachable` inside the chosen arc, inside the range and at least a step from every existing
+/// view, nearest to where [`plan_next_aimed`] would split it (an aim within reach, else the
+/// middle). An arc that holds no such pan is passed over, as an
 /// arc too short to split is: asking for its middle would bring back a view from another
 /// arc, and the arc would stay the worst, so every later request would too.
 ///
@@ -201,25 +202,14 @@ pub fn plan_next_aimed(
 /// let scores = [score(0, 1, 100.0), score(1, 2, 100.0)];
 /// // The wide arc ranks first, but nothing can be reached inside it.
 /// let reachable = [-100.0, 12.0, 20.0].map(Angle::from_degrees);
-/// let next = plan_next_among(&pans, &scores, &[], &reachable, &limits, &PlanParams::default())?
+/// let plan = PlanParams::default();
+/// let next = plan_next_among(&pans, &scores, &[], Some(&reachable), &limits, &plan)?
 ///     .ok_or("nothing to split")?;
 /// assert_eq!(next.pair, (1, 2));
 /// assert_eq!(next.pan, Angle::from_degrees(12.0)); // the nearest to the middle, 15
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn plan_next_among(
-    pans: &[Angle],
-    scores: &[PairScore],
-    aims: &[Angle],
-    reachable: &[Angle],
-    limits: &TurntableLimits,
-    params: &PlanParams,
-) -> Result<Option<Proposal>> {
-    plan(pans, scores, aims, Some(reachable), limits, params)
-}
-
-/// [`plan_next_aimed`] with every whole step reachable (`None`), or [`plan_next_among`].
-fn plan(
     pans: &[Angle],
     scores: &[PairScore],
     aims: &[Angle],
@@ -257,6 +247,13 @@ fn plan(
         pans.iter()
             .all(|p| pan.wrapped_difference(*p).radians().abs() >= step - 1e-9)
     };
+    // The reachable pans a proposal may be: inside the range, a step from every view.
+    let candidates: Option<Vec<Angle>> = reachable.map(|r| {
+        r.iter()
+            .filter_map(|p| limits.range.normalize(*p))
+            .filter(|p| far_enough(*p))
+            .collect()
+    });
     for (_, s) in order {
         let (Some(pa), Some(gap)) = (pans.get(s.a), gap(s)) else {
             continue;
@@ -270,7 +267,7 @@ fn plan(
             .map(offset)
             .filter(|o| *o > 0.0 && *o < gap && (o - gap / 2.0).abs() <= reach)
             .min_by(|x, y| (x - gap / 2.0).abs().total_cmp(&(y - gap / 2.0).abs()));
-        let pan = match reachable {
+        let pan = match &candidates {
             None => {
                 let at = |o: f64| {
                     let pan = limits.quantise(Angle::from_radians(pa.radians() + o));
@@ -278,13 +275,11 @@ fn plan(
                 };
                 aim.and_then(at).or_else(|| at(gap / 2.0))
             }
-            Some(reachable) => {
+            Some(candidates) => {
                 let target = aim.unwrap_or(gap / 2.0);
-                reachable
+                candidates
                     .iter()
-                    .filter_map(|p| limits.range.normalize(*p))
-                    .filter(|p| far_enough(*p))
-                    .map(|p| (offset(&p), p))
+                    .map(|p| (offset(p), *p))
                     .filter(|(o, _)| *o > 0.0 && *o < gap)
                     .min_by(|x, y| (x.0 - target).abs().total_cmp(&(y.0 - target).abs()))
                     .map(|(_, p)| p)

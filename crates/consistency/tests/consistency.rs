@@ -410,7 +410,7 @@ fn among_reachable_pans_the_one_nearest_the_split_is_proposed() -> TestResult {
     };
     let among = |reachable: &[f64], aims: &[f64]| -> Result<Split, aibr_consistency::Error> {
         let (reachable, aims) = (degrees(reachable), degrees(aims));
-        plan_next_among(&pans, &scores, &aims, &reachable, &limits, &plan).map(split)
+        plan_next_among(&pans, &scores, &aims, Some(&reachable), &limits, &plan).map(split)
     };
     // Anything reachable inside the widest arc: the pan nearest its middle, as it is (a
     // recorded view need not lie on a whole step).
@@ -498,7 +498,7 @@ proptest! {
             return Err(TestCaseError::fail("limits refused"));
         };
         let reachable: Vec<Angle> = reachable.iter().map(|d| Angle::from_degrees(*d)).collect();
-        let planned = plan_next_among(&pans, &scores, &[], &reachable, &limits, &PlanParams::default());
+        let planned = plan_next_among(&pans, &scores, &[], Some(&reachable), &limits, &PlanParams::default());
         prop_assert!(planned.is_ok());
         // The arcs with a usable pan inside, by rank (score times width cubed).
         let usable = |i: usize| reachable.iter().any(|r| {
