@@ -14,12 +14,13 @@
 //! of closed and filled, `FILL=N` closes it with a cube of `2N + 1` voxels
 //! ([`RenderParams::fill`]). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the model first,
 //! `TOPS=walls` the same with its steps walled ([`aibr_voxel::TopRefinement::walls`]).
-//! `GRID=N` reconstructs on an `N`^3 grid instead of 128^3.
+//! `GRID=N` reconstructs on an `N`^3 grid instead of 128^3. `COLUMN=1` reconstructs with
+//! voxel coloring's column test ([`aibr_voxel::ColumnTest`], its defaults).
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
 use aibr_scene::{RenderOptions, catalogue};
-use aibr_voxel::{ColoringParams, Criterion, View, VoxelGrid, voxel_coloring};
+use aibr_voxel::{ColoringParams, ColumnTest, Criterion, View, VoxelGrid, voxel_coloring};
 use image::GenericImage;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -64,6 +65,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let grid = VoxelGrid::with_resolution(scene.bounds(), resolution)?;
             let coloring = ColoringParams {
                 criterion: criterion()?,
+                column_test: std::env::var("COLUMN")
+                    .is_ok_and(|c| c == "1")
+                    .then(ColumnTest::default),
                 ..ColoringParams::default()
             };
             let mut model = voxel_coloring(&grid, &views, &coloring)?.model;

@@ -10,14 +10,17 @@
 //! checkpoint; `VIEWS` is then ignored). `REFINE=1` runs [`aibr_voxel::refine_tops`] with its
 //! defaults on each model before scoring it, `REFINE=MARGIN:RATIO:DEPTH` with those
 //! [`aibr_voxel::TopRefinement`] fields; `WALLS=1` walls the steps the refinement leaves
-//! ([`aibr_voxel::TopRefinement::walls`]).
+//! ([`aibr_voxel::TopRefinement::walls`]). `COLUMN=1` turns on the column test
+//! ([`aibr_voxel::ColumnTest`]) with its defaults, `COLUMN=MARGIN:RATIO:DEPTH:NEIGHBOURS`
+//! with those fields; `REF=1` runs [`aibr_voxel::voxel_coloring_reference`] instead of the
+//! fast kernel.
 
 mod common;
 
 use aibr_scene::catalogue;
 use aibr_voxel::metrics::geometry_score;
 use aibr_voxel::{
-    ColoringParams, Criterion, TopRefinement, VoxelGrid, refine_tops, voxel_coloring,
+    ColoringParams, ColumnTest, Criterion, TopRefinement, VoxelGrid, refine_tops, voxel_coloring,
 };
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -77,8 +80,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if let Some(inset) = env("INSET") {
                 params.sample_inset = inset as f32;
             }
+            if let Ok(spec) = std::env::var("COLUMN") {
+                params.column_test = Some(column_test(&spec)?);
+            }
             let start = std::time::Instant::now();
-            let mut model = voxel_coloring(&grid, &views, &params)?.model;
+            let mut model = if std::env::var("REF").is_ok_and(|r| r == "1") {
+                aibr_voxel::voxel_coloring_reference(&grid, &views, &params)?.model
+            } else {
+                voxel_coloring(&grid, &views, &params)?.model
+            };
             let ms = start.elapsed().as_secs_f64() * 1e3;
             let refined = if let Some(refine) = &refine {
                 let start = std::time::Instant::now();
@@ -97,6 +107,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
+}
+
+/// `1` (the defaults) or `MARGIN:RATIO:DEPTH:NEIGHBOURS`.
+fn column_test(spec: &str) -> Result<ColumnTest, String> {
+    let bad = || format!("COLUMN={spec}: expected 1 or MARGIN:RATIO:DEPTH:NEIGHBOURS");
+    let parts: Vec<&str> = spec.split(':').collect();
+    match parts.as_slice() {
+        ["1"] => Ok(ColumnTest::default()),
+        [m, r, d, n] => Ok(ColumnTest {
+            margin: m.parse().map_err(|_| bad())?,
+            ratio: r.parse().map_err(|_| bad())?,
+            depth: d.parse().map_err(|_| bad())?,
+            neighbours: n.parse().map_err(|_| bad())?,
+        }),
+        _ => Err(bad()),
+    }
 }
 
 /// `1` (the defaults) or `MARGIN:RATIO:DEPTH`.

@@ -58,6 +58,7 @@
 
 pub mod carving;
 pub mod coloring;
+pub mod column;
 pub mod error;
 pub mod faces;
 pub mod fill;
@@ -75,6 +76,7 @@ pub use coloring::{
     ColoringParams, KernelStats, Reconstruction, check_cameras_above, voxel_coloring,
     voxel_coloring_reference,
 };
+pub use column::ColumnTest;
 pub use error::{Error, Result};
 pub use faces::{FaceParams, PlanarFace, planar_faces};
 pub use grid::{VoxelGrid, VoxelModel};

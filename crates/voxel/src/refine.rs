@@ -323,10 +323,7 @@ fn coherent(m: &Move, depth_of: &HashMap<[usize; 3], usize>) -> bool {
 struct Scratch {
     seeing: Vec<usize>,
     colours: Vec<[f32; 3]>,
-    /// `colours.len()` squared: the squared differences of every pair.
-    squares: Vec<f32>,
-    differences: Vec<f32>,
-    per_view: Vec<f32>,
+    spreads: Spreads,
 }
 
 /// The decision for one top seen by the views of `scratch.seeing`: `Some` move when a
@@ -357,7 +354,8 @@ fn judge(
     // Their spread; `None` when fewer than `min_views` views have a foreground pixel there.
     let spread_at = |depth: usize, scratch: &mut Scratch| {
         colours_at(depth, scratch);
-        (scratch.colours.len() >= params.min_views).then(|| robust_spread(scratch))
+        (scratch.colours.len() >= params.min_views)
+            .then(|| scratch.spreads.robust(&scratch.colours))
     };
     let own = spread_at(0, scratch)?;
     // No candidate can be `margin` below a spread under it: most true tops stop here.
@@ -398,36 +396,47 @@ fn mean_of(colours: &[[f32; 3]]) -> [u8; 3] {
     [0, 1, 2].map(|c| (colours.iter().map(|x| x[c]).sum::<f32>() / n).round() as u8)
 }
 
-/// The robust spread of `scratch.colours` (at least two): for each colour the median of its
-/// RMS differences to the others, then the median of those (upper medians). The medians are
-/// taken over squared differences, whose order is the same, and one root is taken at the end.
-fn robust_spread(scratch: &mut Scratch) -> f32 {
-    let Scratch {
-        colours,
-        squares,
-        differences,
-        per_view,
-        ..
-    } = scratch;
-    let n = colours.len();
-    squares.clear();
-    squares.resize(n * n, 0.0);
-    for a in 0..n {
-        for b in a + 1..n {
-            let d = squared_difference(&colours[a], &colours[b]);
-            squares[a * n + b] = d;
-            squares[b * n + a] = d;
+/// Buffers for [`Spreads::robust`], reused from one set of colours to the next.
+#[derive(Debug, Default)]
+pub(crate) struct Spreads {
+    /// The squared differences of every pair, `n` by `n`.
+    squares: Vec<f32>,
+    differences: Vec<f32>,
+    per_view: Vec<f32>,
+}
+
+impl Spreads {
+    /// The robust spread of `colours` (at least two), in grey levels: for each colour the
+    /// median of its RMS differences to the others, then the median of those (upper
+    /// medians), so that a minority of outliers (a highlight in a few views) does not count.
+    /// The medians are taken over squared differences, whose order is the same, and one root
+    /// is taken at the end.
+    pub(crate) fn robust(&mut self, colours: &[[f32; 3]]) -> f32 {
+        let Spreads {
+            squares,
+            differences,
+            per_view,
+        } = self;
+        let n = colours.len();
+        squares.clear();
+        squares.resize(n * n, 0.0);
+        for a in 0..n {
+            for b in a + 1..n {
+                let d = squared_difference(&colours[a], &colours[b]);
+                squares[a * n + b] = d;
+                squares[b * n + a] = d;
+            }
         }
+        per_view.clear();
+        for a in 0..n {
+            differences.clear();
+            let row = &squares[a * n..(a + 1) * n];
+            differences.extend_from_slice(&row[..a]);
+            differences.extend_from_slice(&row[a + 1..]);
+            per_view.push(upper_median(differences));
+        }
+        (upper_median(per_view) / 3.0).sqrt()
     }
-    per_view.clear();
-    for a in 0..n {
-        differences.clear();
-        let row = &squares[a * n..(a + 1) * n];
-        differences.extend_from_slice(&row[..a]);
-        differences.extend_from_slice(&row[a + 1..]);
-        per_view.push(upper_median(differences));
-    }
-    (upper_median(per_view) / 3.0).sqrt()
 }
 
 /// The element at `len / 2` in sorted order (reorders `values`); 0 for none.
@@ -445,14 +454,12 @@ mod tests {
 
     #[test]
     fn the_spread_ignores_a_minority_of_outliers() {
-        let mut scratch = Scratch {
-            colours: vec![[100.0; 3], [102.0; 3], [98.0; 3], [101.0; 3], [250.0; 3]],
-            ..Scratch::default()
-        };
+        let mut spreads = Spreads::default();
+        let colours = [[100.0; 3], [102.0; 3], [98.0; 3], [101.0; 3], [250.0; 3]];
         // The views' medians are 2, 4, 4, 3 and 150 (the outlier's); their median is 4.
-        assert_eq!(robust_spread(&mut scratch), 4.0);
-        scratch.colours = vec![[10.0; 3], [100.0; 3], [200.0; 3], [50.0; 3], [150.0; 3]];
-        assert!(robust_spread(&mut scratch) >= 50.0);
+        assert_eq!(spreads.robust(&colours), 4.0);
+        let colours = [[10.0; 3], [100.0; 3], [200.0; 3], [50.0; 3], [150.0; 3]];
+        assert!(spreads.robust(&colours) >= 50.0);
     }
 
     #[test]

@@ -4,8 +4,8 @@ use aibr_camera::{Angle, Camera, Distortion};
 use aibr_scene::{Frame, RenderOptions, Scene, catalogue};
 use aibr_voxel::metrics::geometry_score;
 use aibr_voxel::{
-    CarvingParams, ColoringParams, Criterion, Error, PlyOptions, Reconstruction, TopRefinement,
-    View, VoxelGrid, refine_tops, space_carving, visual_hull, voxel_coloring,
+    CarvingParams, ColoringParams, ColumnTest, Criterion, Error, PlyOptions, Reconstruction,
+    TopRefinement, View, VoxelGrid, refine_tops, space_carving, visual_hull, voxel_coloring,
     voxel_coloring_reference, write_ply,
 };
 use image::{GrayImage, RgbImage};
@@ -66,6 +66,7 @@ fn fast_equals_reference(
     assert!(fast.model == reference.model, "{case}");
     assert_eq!(fast.stats.tested, reference.stats.tested, "{case}");
     assert_eq!(fast.stats.kept, reference.stats.kept, "{case}");
+    assert_eq!(fast.stats.sunk, reference.stats.sunk, "{case}");
     Ok(fast)
 }
 
@@ -147,6 +148,77 @@ fn fast_path_equals_the_reference_at_any_sample_inset() -> TestResult {
     // open pixels lie only at the rim of their footprints.
     assert!(tested.windows(2).all(|w| w[1] <= w[0]), "{tested:?}");
     assert!(tested[0] > tested[1], "{tested:?}");
+    Ok(())
+}
+
+/// The column test ([`ColumnTest`]): the fast path equals the reference with it, with and
+/// without masks and at an inset, and it passes over voxels the criterion kept.
+#[test]
+fn fast_path_equals_the_reference_with_the_column_test() -> TestResult {
+    let scene = catalogue::head()?;
+    let cap = capture(&scene, 24)?;
+    let grid = VoxelGrid::with_resolution(scene.bounds(), 64)?;
+    for (masks, sample_inset) in [(true, 0.0), (false, 0.0), (true, 0.5)] {
+        let params = ColoringParams {
+            sample_inset,
+            column_test: Some(ColumnTest::default()),
+            ..ColoringParams::default()
+        };
+        let case = format!("masks {masks}, inset {sample_inset}");
+        let with = fast_equals_reference(&grid, &cap.views(masks), &params, &case)?;
+        assert!(with.stats.sunk > 100, "{case}: {:?}", with.stats);
+        let without = voxel_coloring(
+            &grid,
+            &cap.views(masks),
+            &ColoringParams {
+                column_test: None,
+                ..params
+            },
+        )?;
+        assert_eq!(without.stats.sunk, 0);
+        assert!(with.model != without.model, "{case}");
+    }
+    Ok(())
+}
+
+#[test]
+fn a_column_test_out_of_range_is_refused() -> TestResult {
+    let scene = catalogue::lambertian()?;
+    let cap = capture(&scene, 6)?;
+    let grid = VoxelGrid::with_resolution(scene.bounds(), 16)?;
+    let bad = [
+        ColumnTest {
+            ratio: 1.5,
+            ..ColumnTest::default()
+        },
+        ColumnTest {
+            neighbours: f32::NAN,
+            ..ColumnTest::default()
+        },
+        ColumnTest {
+            margin: -1.0,
+            ..ColumnTest::default()
+        },
+        ColumnTest {
+            depth: 0,
+            ..ColumnTest::default()
+        },
+    ];
+    for test in bad {
+        let params = ColoringParams {
+            column_test: Some(test),
+            ..ColoringParams::default()
+        };
+        for result in [
+            voxel_coloring(&grid, &cap.views(true), &params),
+            voxel_coloring_reference(&grid, &cap.views(true), &params),
+        ] {
+            assert!(
+                matches!(result, Err(Error::InvalidParameter { name, .. }) if name.starts_with("column_test.")),
+                "{test:?}"
+            );
+        }
+    }
     Ok(())
 }
 
@@ -250,6 +322,40 @@ fn same_model_at_any_thread_count() -> TestResult {
     let (refined, stats) = refine(1)?;
     assert!(stats.moved > 0, "{stats:?}");
     assert!(refine(3)? == (refined, stats));
+    let column = |threads: usize| -> Result<_, Box<dyn std::error::Error>> {
+        let params = ColoringParams {
+            column_test: Some(ColumnTest::default()),
+            ..ColoringParams::default()
+        };
+        Ok(on_threads(threads, || {
+            voxel_coloring(&grid, &cap.views(true), &params)
+        })??)
+    };
+    let sunk = column(1)?;
+    assert!(sunk.stats.sunk > 0, "{:?}", sunk.stats);
+    assert!(sunk == column(3)?);
+    Ok(())
+}
+
+/// The same targets reached by the sweep itself, with the column test: a floating top is
+/// passed over while the layers below are still to be judged, so the surface under it is
+/// reconstructed (where [`refine_tops`] leaves it open).
+#[test]
+fn head_within_its_targets_with_the_column_test() -> TestResult {
+    let scene = catalogue::head()?;
+    let cap = capture(&scene, 48)?;
+    let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
+    let params = ColoringParams {
+        column_test: Some(ColumnTest::default()),
+        ..ColoringParams::default()
+    };
+    let run = voxel_coloring(&grid, &cap.views(true), &params)?;
+    let truth = scene.geometry_reference_of(300_000, 20_000)?;
+    let score = geometry_score(&run.model, &truth.exposed, &truth.visible);
+    eprintln!("head 128^3 x 48, column test: {score:?}, {:?}", run.stats);
+    assert!(score.accuracy_voxels <= 1.5, "{score:?}");
+    assert!(score.completeness >= 0.90, "{score:?}");
+    assert!(run.stats.sunk > 1000, "{:?}", run.stats);
     Ok(())
 }
 

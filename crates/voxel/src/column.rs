@@ -1,0 +1,237 @@
+//! The column test: voxel coloring passes over a floating voxel when the views agree
+//! clearly better further down its column ([`ColumnTest`], an option of
+//! [`crate::ColoringParams`]).
+//!
+//! A single sweep keeps the first voxel down each ray that its views find consistent. Over a
+//! horizontal textured face seen from the ring's elevation, a voxel a layer or two above the
+//! face still passes the criteria, which compare views close in angle: they see it against
+//! nearly the same texture. The true voxel below is then hidden by it. On `head` that fattens
+//! the pedestal top and fills the corner under the neck with a fillet up to ten layers high
+//! (`docs/voxel.md`). A threshold cannot tell the two apart; a comparison down the column
+//! can. Every view sees the true surface at the same point, while a point above it is seen at
+//! points spread over a circle whose radius grows with the height, so over all the views,
+//! wide baselines included, the colours agree best at the true height.
+//!
+//! With the test on, a voxel the criterion keeps whose column above is empty in the model
+//! so far (a top) is asked one more question before it is kept. Over the views that sample
+//! it, the robust spread of its colours (for each view the median of its RMS differences to
+//! the others, then the median over the views, so a highlight in a few views does not count)
+//! is compared with the same spread of each of the [`ColumnTest::depth`] voxels below it,
+//! each sampled from the same views at its own footprint's unclaimed pixels. When the best of
+//! those is clearly smaller, by [`ColumnTest::ratio`] and [`ColumnTest::margin`] both, the
+//! top would sink. It does, and is not kept, only when at least [`ColumnTest::neighbours`]
+//! of the tops the layer keeps in the 8 columns around it would sink too: a floating layer
+//! or a fillet sinks as a whole, while a lone top on flat colour or at a texture edge stays.
+//!
+//! A top that sinks leaves its pixels unclaimed, so the sweep goes on down the column and
+//! judges the voxel below it with them, as if the floating one had been inconsistent. That
+//! is what sets it apart from [`crate::refine_tops`], a pass after the sweep: there, what a
+//! lowered top had hidden was never reconstructed, and the model is left with pits.
+//!
+//! The decisions of a layer read only the claims of the layers above and the kept voxels of
+//! the layer, so they are the same at any thread count, and the same in
+//! [`crate::voxel_coloring`] and [`crate::voxel_coloring_reference`], which both call this
+//! module.
+//!
+//! # Conventions
+//! "Up" is +z of the grid (the turntable frame's pan axis); depths are in voxels, colour
+//! differences in grey levels of 8-bit images, RMS over R, G and B, as in the criteria of
+//! [`crate::Criterion`].
+
+use nalgebra::Point3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::grid::{VoxelGrid, VoxelModel};
+use crate::hull::{Hull, behind};
+use crate::kernel::{Footprint, Projector, Sample};
+use crate::refine::Spreads;
+
+/// Parameters of the column test ([`crate::ColoringParams::column_test`]); see the
+/// [module](self) for what it does. The defaults were chosen on the catalogue at 128^3
+/// with 48 views (`docs/voxel.md`, "The column test").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColumnTest {
+    /// How many voxels below a top are compared with it (default 12).
+    pub depth: usize,
+    /// A top sinks only when the best spread below is at most this share of its own
+    /// (default 0.7) ...
+    pub ratio: f32,
+    /// ... and at least this many grey levels below it (default 6): on flat colour the
+    /// spreads are sensor noise, and the smallest of them says nothing about the height.
+    pub margin: f32,
+    /// ... and at least this share of the tops the layer keeps in the 8 columns around it
+    /// would sink too (default 0.5).
+    pub neighbours: f32,
+}
+
+impl Default for ColumnTest {
+    fn default() -> Self {
+        ColumnTest {
+            depth: 12,
+            ratio: 0.7,
+            margin: 6.0,
+            neighbours: 0.5,
+        }
+    }
+}
+
+impl ColumnTest {
+    /// A [`ColumnTest::depth`] of 0, a [`ColumnTest::ratio`] or [`ColumnTest::neighbours`]
+    /// outside `[0, 1]`, or a negative [`ColumnTest::margin`] (any of them NaN) is
+    /// [`Error::InvalidParameter`].
+    pub fn validate(&self) -> Result<()> {
+        let share = |name, value: f32| {
+            if (0.0..=1.0).contains(&value) {
+                Ok(())
+            } else {
+                Err(Error::InvalidParameter {
+                    name,
+                    value: f64::from(value),
+                    reason: "a share must lie in [0, 1]",
+                })
+            }
+        };
+        share("column_test.ratio", self.ratio)?;
+        share("column_test.neighbours", self.neighbours)?;
+        if !(self.margin >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "column_test.margin",
+                value: f64::from(self.margin),
+                reason: "grey levels must not be negative",
+            });
+        }
+        if self.depth == 0 {
+            return Err(Error::InvalidParameter {
+                name: "column_test.depth",
+                value: 0.0,
+                reason: "at least one voxel below must be compared",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// What the column test needs of a kernel's state while it decides layer `k`.
+pub(crate) struct Sweep<'a, G> {
+    pub(crate) grid: &'a VoxelGrid,
+    pub(crate) projectors: &'a [Projector],
+    pub(crate) centres: &'a [Point3<f64>],
+    /// The boundary of the visual hull and the cosine of
+    /// [`crate::ColoringParams::behind_hull`], when that is on.
+    pub(crate) hull: Option<(&'a Hull, f64)>,
+    /// [`crate::ColoringParams::sample_inset`].
+    pub(crate) inset: f32,
+    /// [`crate::ColoringParams::min_views`].
+    pub(crate) min_views: usize,
+    /// Sum and count of the pixels of a footprint in view `v` not yet claimed (and
+    /// foreground, with a mask): the kernel's own gather.
+    pub(crate) gather: G,
+}
+
+impl<G> Sweep<'_, G>
+where
+    G: Fn(usize, &Footprint) -> ([u32; 3], u32) + Sync,
+{
+    /// For each voxel of `kept`, the voxels the criterion keeps in one layer (`model` holds
+    /// the layers above), whether the test drops it.
+    pub(crate) fn sinking(
+        &self,
+        test: &ColumnTest,
+        model: &VoxelModel,
+        kept: &[([usize; 3], [u8; 3])],
+    ) -> Vec<bool> {
+        let nz = self.grid.dims()[2];
+        let top = |[i, j, k]: [usize; 3]| k + 1 >= nz || !model.is_occupied([i, j, k + 1]);
+        // Per kept voxel: `None` when it is no top, else whether it would sink.
+        let would: Vec<Option<bool>> = kept
+            .par_iter()
+            .map_init(Judging::default, |scratch, &(idx, _)| {
+                top(idx).then(|| self.would_sink(test, idx, scratch))
+            })
+            .collect();
+        // The tops of the layer by column, for the neighbour count.
+        let [nx, ny, _] = self.grid.dims();
+        let mut columns = vec![None; nx * ny];
+        for (&(idx, _), &w) in kept.iter().zip(&would) {
+            columns[idx[1] * nx + idx[0]] = w;
+        }
+        kept.iter()
+            .zip(&would)
+            .map(|(&([i, j, _], _), &w)| {
+                if w != Some(true) {
+                    return false;
+                }
+                let (mut judged, mut sinking) = (0u32, 0u32);
+                for b in j.saturating_sub(1)..(j + 2).min(ny) {
+                    for a in i.saturating_sub(1)..(i + 2).min(nx) {
+                        if (a, b) == (i, j) {
+                            continue;
+                        }
+                        if let Some(s) = columns[b * nx + a] {
+                            judged += 1;
+                            sinking += u32::from(s);
+                        }
+                    }
+                }
+                sinking as f32 >= test.neighbours * judged as f32
+            })
+            .collect()
+    }
+
+    /// Whether the top `idx` would sink, before its neighbours are asked.
+    fn would_sink(&self, test: &ColumnTest, idx: [usize; 3], scratch: &mut Judging) -> bool {
+        let [i, j, k] = idx;
+        let grid = self.grid;
+        let x = grid.centre(idx);
+        let normal = self.hull.map(|(h, cosine)| (h.normal(idx), cosine));
+        // The views that sample the top, as the criterion took them, and its colours there.
+        scratch.views.clear();
+        scratch.colours.clear();
+        for (v, p) in self.projectors.iter().enumerate() {
+            if normal.is_some_and(|(n, cosine)| behind(n, &self.centres[v], &x, cosine)) {
+                continue;
+            }
+            if let Some(c) = self.colour(p, v, [i, j, k]) {
+                scratch.views.push(v);
+                scratch.colours.push(c);
+            }
+        }
+        if scratch.colours.len() < self.min_views.max(2) {
+            return false;
+        }
+        let own = scratch.spreads.robust(&scratch.colours);
+        // No candidate can be `margin` below a spread under it: most true tops stop here.
+        if own < test.margin {
+            return false;
+        }
+        let mut best = f32::INFINITY;
+        for d in 1..=test.depth.min(k) {
+            scratch.colours.clear();
+            for &v in &scratch.views {
+                if let Some(c) = self.colour(&self.projectors[v], v, [i, j, k - d]) {
+                    scratch.colours.push(c);
+                }
+            }
+            if scratch.colours.len() >= self.min_views.max(2) {
+                best = best.min(scratch.spreads.robust(&scratch.colours));
+            }
+        }
+        best <= test.ratio * own && own - best >= test.margin
+    }
+
+    /// The mean colour of voxel `idx`'s unclaimed sampled pixels in view `v`, if any.
+    fn colour(&self, p: &Projector, v: usize, [i, j, k]: [usize; 3]) -> Option<[f32; 3]> {
+        let fp = p.inset(p.along_row(&p.row_base(self.grid, j, k), i), self.inset)?;
+        let (sum, count) = (self.gather)(v, &fp);
+        (count > 0).then(|| Sample::new(v, sum, count).colour)
+    }
+}
+
+/// Buffers reused from one top to the next on a thread.
+#[derive(Default)]
+struct Judging {
+    views: Vec<usize>,
+    colours: Vec<[f32; 3]>,
+    spreads: Spreads,
+}
