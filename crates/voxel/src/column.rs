@@ -200,24 +200,24 @@ where
         if scratch.colours.len() < self.min_views.max(2) {
             return false;
         }
-        let own = scratch.spreads.robust(&scratch.colours);
-        // No candidate can be `margin` below a spread under it: most true tops stop here.
-        if own < test.margin {
+        // No candidate can be `margin` below a spread within it: most true tops stop here.
+        if Spreads::at_most(&scratch.colours, test.margin) {
             return false;
         }
-        let mut best = f32::INFINITY;
-        for d in 1..=test.depth.min(k) {
+        let own = scratch.spreads.robust(&scratch.colours);
+        // The top would sink when some candidate's spread is at most this: the first such
+        // candidate settles it.
+        let bar = (test.ratio * own).min(own - test.margin);
+        (1..=test.depth.min(k)).any(|d| {
             scratch.colours.clear();
             for &v in &scratch.views {
                 if let Some(c) = self.colour(&self.projectors[v], v, [i, j, k - d]) {
                     scratch.colours.push(c);
                 }
             }
-            if scratch.colours.len() >= self.min_views.max(2) {
-                best = best.min(scratch.spreads.robust(&scratch.colours));
-            }
-        }
-        best <= test.ratio * own && own - best >= test.margin
+            scratch.colours.len() >= self.min_views.max(2)
+                && Spreads::at_most(&scratch.colours, bar)
+        })
     }
 
     /// The mean colour of voxel `idx`'s unclaimed sampled pixels in view `v`, if any.

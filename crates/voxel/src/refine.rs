@@ -437,6 +437,56 @@ impl Spreads {
         }
         (upper_median(per_view) / 3.0).sqrt()
     }
+
+    /// Whether the robust spread of `colours` is at most `bar` grey levels: the answer of
+    /// `self.robust(colours) <= bar` (compared in squares, so up to rounding at the bar
+    /// itself), found by counting instead of sorting and given as soon as it is known. A
+    /// view's median difference is within the bar when more than half of its differences
+    /// are, and the spread when more than half of the views' medians are.
+    pub(crate) fn at_most(colours: &[[f32; 3]], bar: f32) -> bool {
+        let n = colours.len();
+        if n < 2 {
+            return bar >= 0.0;
+        }
+        if !(bar >= 0.0) {
+            return false;
+        }
+        let limit = 3.0 * bar * bar;
+        // The upper median of `len` values is within the limit when `len / 2 + 1` are.
+        let (need_views, need_pairs) = (n / 2 + 1, (n - 1) / 2 + 1);
+        let (mut within, mut beyond) = (0, 0);
+        for (a, ca) in colours.iter().enumerate() {
+            let (mut near, mut far) = (0, 0);
+            for (b, cb) in colours.iter().enumerate() {
+                if a == b {
+                    continue;
+                }
+                if squared_difference(ca, cb) <= limit {
+                    near += 1;
+                    if near == need_pairs {
+                        break;
+                    }
+                } else {
+                    far += 1;
+                    if far > n - 1 - need_pairs {
+                        break;
+                    }
+                }
+            }
+            if near == need_pairs {
+                within += 1;
+                if within == need_views {
+                    return true;
+                }
+            } else {
+                beyond += 1;
+                if beyond > n - need_views {
+                    return false;
+                }
+            }
+        }
+        false
+    }
 }
 
 /// The element at `len / 2` in sorted order (reorders `values`); 0 for none.
@@ -460,6 +510,51 @@ mod tests {
         assert_eq!(spreads.robust(&colours), 4.0);
         let colours = [[10.0; 3], [100.0; 3], [200.0; 3], [50.0; 3], [150.0; 3]];
         assert!(spreads.robust(&colours) >= 50.0);
+    }
+
+    /// The counting test agrees with the spread it stands for, on sets of colours with and
+    /// without outliers, at bars on either side of the spread.
+    #[test]
+    fn counting_agrees_with_the_spread() {
+        let mut spreads = Spreads::default();
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) as f32 / (1u64 << 31) as f32
+        };
+        let mut checked = 0;
+        for trial in 0..2000 {
+            let n = 1 + trial % 40;
+            let spread = 1.0 + 60.0 * next();
+            let colours: Vec<[f32; 3]> = (0..n)
+                .map(|_| {
+                    let outlier = next() < 0.3;
+                    let scale = if outlier { 200.0 } else { spread };
+                    [0, 1, 2].map(|_| 100.0 + scale * (next() - 0.5))
+                })
+                .collect();
+            let exact = spreads.robust(&colours);
+            for bar in [
+                0.0,
+                exact * 0.5,
+                exact * 0.99,
+                exact * 1.01,
+                exact * 2.0,
+                300.0,
+            ] {
+                if (bar - exact).abs() > 1e-3 * exact.max(1.0) || bar == exact {
+                    assert_eq!(
+                        Spreads::at_most(&colours, bar),
+                        exact <= bar,
+                        "{colours:?} {bar}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
     }
 
     #[test]
