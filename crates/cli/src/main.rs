@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use aibr::camera::Angle;
-use aibr::voxel::{ColoringParams, Criterion, PlyOptions, TopRefinement, write_ply};
+use aibr::voxel::{ColoringParams, ColumnTest, Criterion, PlyOptions, TopRefinement, write_ply};
 use aibr::{CaptureParams, EvalModel, Progress, Session, SimRig, Strategy, write_atomic};
 use anyhow::{Context, Result, bail};
 
@@ -359,6 +359,13 @@ struct ReconstructArgs {
     /// (`docs/voxel.md`, "Sampled pixels").
     #[arg(long, value_name = "PIXELS", value_parser = parse_sample_inset)]
     sample_inset: Option<f32>,
+    /// Voxel coloring: pass over a top voxel whose views agree clearly better further down
+    /// its column, with the tops around it, and go on judging the voxels below
+    /// (`aibr_voxel::ColumnTest`, its defaults): on the synthetic `head`, 2.99 -> 1.16 voxels
+    /// of accuracy at 128^3 from 48 views, in about 2.5 times the time, and the model stays
+    /// closed. `aibr render` does not use it (`docs/voxel.md`, "The column test").
+    #[arg(long)]
+    column_test: bool,
     /// After the reconstruction, move the upward-facing surface down to where the views
     /// agree best (`aibr_voxel::refine_tops`, its defaults): on the synthetic `head`, 2.99 ->
     /// 1.23 voxels of accuracy at 128^3 from 48 views. It leaves gaps where the sweep's
@@ -1552,6 +1559,9 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
     if let Some(inset) = a.sample_inset {
         coloring.sample_inset = inset;
     }
+    if a.column_test {
+        coloring.column_test = Some(ColumnTest::default());
+    }
     let views = session.load_views()?;
     let (rec, algorithm, refined) = if a.refine_tops {
         let (rec, algorithm, stats) = aibr::reconstruct_refined(
@@ -1590,6 +1600,7 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
                 "views": session.file().views.len(),
                 "grid": rec.model.grid().dims(),
                 "voxels": rec.model.occupied_count(),
+                "column_test": a.column_test.then(|| serde_json::json!({"sunk": rec.stats.sunk})),
                 "refine_tops": refined.map(|r| serde_json::json!({
                     "tops": r.tops,
                     "judged": r.judged,
@@ -1608,6 +1619,12 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
             session.file().views.len(),
             path.display()
         );
+        if a.column_test {
+            println!(
+                "column test: {} top voxels passed over for the surface below",
+                rec.stats.sunk
+            );
+        }
         if let Some(r) = refined {
             println!(
                 "tops refined: {} of {} judged tops moved down, {} voxels cleared, {} walled",

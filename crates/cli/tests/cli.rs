@@ -230,6 +230,12 @@ fn reconstruct_and_render_a_session() -> TestResult {
         "{walled}"
     );
     assert!(refused(&reconstruct(&["--walls"])?, "--refine-tops"));
+    // The column test: without the flag no summary; with it, tops passed over and another
+    // model.
+    assert!(summary["column_test"].is_null());
+    let column = summary_with(&["--column-test"])?;
+    assert!(column["column_test"]["sunk"].as_u64() > Some(0), "{column}");
+    assert_ne!(column["voxels"], summary["voxels"]);
 
     // `aibr render` of the session with `args`, writing to `to`.
     let render = |args: &[&str], to: &Path| {
