@@ -1,7 +1,8 @@
 //! Voxel coloring benches (group `voxel_coloring`): the `lambertian` scene, 48 views of
 //! 640x480 spread over the pan range, ground-truth masks; entries `128` and `256` (voxels
-//! along the longest edge), `128_sample_inset_0.5` (the option for dense views), and the
-//! scalar reference at 128 as the naive baseline.
+//! along the longest edge), `128_sample_inset_0.5` (the option for dense views),
+//! `128_column_test` (the option for geometry, [`aibr_voxel::ColumnTest`]), and the scalar
+//! reference at 128 as the naive baseline.
 //!
 //! `cargo bench -p aibr-benches --bench voxel_coloring`
 
@@ -9,7 +10,9 @@
 #![allow(missing_docs)]
 
 use aibr_scene::{RenderOptions, catalogue};
-use aibr_voxel::{ColoringParams, View, VoxelGrid, voxel_coloring, voxel_coloring_reference};
+use aibr_voxel::{
+    ColoringParams, ColumnTest, View, VoxelGrid, voxel_coloring, voxel_coloring_reference,
+};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 fn bench(c: &mut Criterion) {
@@ -53,6 +56,14 @@ fn bench(c: &mut Criterion) {
         };
         g.bench_function("128_sample_inset_0.5", |b| {
             b.iter(|| voxel_coloring(&grid, &views, &inset))
+        });
+        // The option for geometry: tops passed over where the views agree better below.
+        let column = ColoringParams {
+            column_test: Some(ColumnTest::default()),
+            ..params
+        };
+        g.bench_function("128_column_test", |b| {
+            b.iter(|| voxel_coloring(&grid, &views, &column))
         });
         g.bench_function("reference_128", |b| {
             b.iter(|| voxel_coloring_reference(&grid, &views, &params))
