@@ -362,8 +362,9 @@ struct ReconstructArgs {
     /// Voxel coloring: pass over a top voxel whose views agree clearly better further down
     /// its column, with the tops around it, and go on judging the voxels below
     /// (`aibr_voxel::ColumnTest`, its defaults): on the synthetic `head`, 2.99 -> 1.16 voxels
-    /// of accuracy at 128^3 from 48 views, in about 2.5 times the time, and the model stays
-    /// closed. `aibr render` does not use it (`docs/voxel.md`, "The column test").
+    /// of accuracy at 128^3 from 48 views, in two to three times the time. Unlike
+    /// `--refine-tops` it goes on to reconstruct what a passed-over top hid. `aibr render`
+    /// does not use it (`docs/voxel.md`, "The column test").
     #[arg(long)]
     column_test: bool,
     /// After the reconstruction, move the upward-facing surface down to where the views

@@ -41,6 +41,7 @@
 use nalgebra::Point3;
 use rayon::prelude::*;
 
+use crate::coloring::ColoringParams;
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
 use crate::hull::{Hull, behind};
@@ -112,30 +113,66 @@ impl ColumnTest {
     }
 }
 
-/// What the column test needs of a kernel's state while it decides layer `k`.
+/// What the column test needs of a kernel's state while it decides a layer.
 pub(crate) struct Sweep<'a, G> {
-    pub(crate) grid: &'a VoxelGrid,
-    pub(crate) projectors: &'a [Projector],
-    pub(crate) centres: &'a [Point3<f64>],
+    grid: &'a VoxelGrid,
+    projectors: &'a [Projector],
+    centres: &'a [Point3<f64>],
     /// The boundary of the visual hull and the cosine of
     /// [`crate::ColoringParams::behind_hull`], when that is on.
-    pub(crate) hull: Option<(&'a Hull, f64)>,
+    hull: Option<(&'a Hull, f64)>,
     /// [`crate::ColoringParams::sample_inset`].
-    pub(crate) inset: f32,
+    inset: f32,
     /// [`crate::ColoringParams::min_views`].
-    pub(crate) min_views: usize,
+    min_views: usize,
     /// Sum and count of the pixels of a footprint in view `v` not yet claimed (and
     /// foreground, with a mask): the kernel's own gather.
-    pub(crate) gather: G,
+    gather: G,
 }
 
-impl<G> Sweep<'_, G>
+impl<'a, G> Sweep<'a, G>
 where
     G: Fn(usize, &Footprint) -> ([u32; 3], u32) + Sync,
 {
+    /// A kernel's state: its views' projectors and centres, its hull with
+    /// [`crate::ColoringParams::behind_hull`]'s cosine, its parameters and its gather.
+    pub(crate) fn new(
+        grid: &'a VoxelGrid,
+        projectors: &'a [Projector],
+        centres: &'a [Point3<f64>],
+        hull: Option<&'a (Hull, f64)>,
+        params: &ColoringParams,
+        gather: G,
+    ) -> Self {
+        Sweep {
+            grid,
+            projectors,
+            centres,
+            hull: hull.map(|(h, cosine)| (h, *cosine)),
+            inset: params.sample_inset,
+            min_views: params.min_views,
+            gather,
+        }
+    }
+
+    /// Removes from `kept`, the voxels the criterion keeps in one layer (`model` holds the
+    /// layers above), those the test sinks; returns how many.
+    pub(crate) fn drop_sunk(
+        &self,
+        test: &ColumnTest,
+        model: &VoxelModel,
+        kept: &mut Vec<([usize; 3], [u8; 3])>,
+    ) -> usize {
+        let sinking = self.sinking(test, model, kept);
+        let before = kept.len();
+        let mut sinks = sinking.into_iter();
+        kept.retain(|_| !sinks.next().unwrap_or(false));
+        before - kept.len()
+    }
+
     /// For each voxel of `kept`, the voxels the criterion keeps in one layer (`model` holds
     /// the layers above), whether the test drops it.
-    pub(crate) fn sinking(
+    fn sinking(
         &self,
         test: &ColumnTest,
         model: &VoxelModel,

@@ -221,13 +221,7 @@ mod tests {
 
     #[test]
     fn nearest_agrees_with_brute_force() {
-        let mut s = 7u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut r = crate::test_rng(7);
         let pts: Vec<Point3<f64>> = (0..3000)
             .map(|_| Point3::new(r(), r() * 0.5, r() * 2.0))
             .collect();

@@ -517,13 +517,8 @@ mod tests {
     #[test]
     fn counting_agrees_with_the_spread() {
         let mut spreads = Spreads::default();
-        let mut state = 12345u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 33) as f32 / (1u64 << 31) as f32
-        };
+        let mut rng = crate::test_rng(12345);
+        let mut next = || rng() as f32;
         let mut checked = 0;
         for trial in 0..2000 {
             let n = 1 + trial % 40;
