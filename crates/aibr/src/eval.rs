@@ -10,7 +10,9 @@ use aibr_camera::{Angle, Camera};
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
 use aibr_scene::{GeometryReference, RenderOptions, Scene};
 use aibr_voxel::metrics::{GeometryScore, geometry_score};
-use aibr_voxel::{ColoringParams, TopRefinement, VoxelGrid, VoxelModel, refine_tops, visual_hull};
+use aibr_voxel::{
+    ColoringParams, ColumnTest, TopRefinement, VoxelGrid, VoxelModel, refine_tops, visual_hull,
+};
 use image::{GrayImage, RgbImage};
 
 use crate::capture::{
@@ -142,6 +144,11 @@ pub enum EvalModel {
     /// geometry a renderer could use instead of the sweep's (`docs/voxel.md`, "Walls for the
     /// steps"). Only where voxel coloring made the model; a space-carved one is used as it is.
     Refined,
+    /// The views reconstructed by voxel coloring with its column test
+    /// ([`aibr_voxel::ColoringParams::column_test`], its defaults): better geometry on
+    /// textured tops (`docs/voxel.md`, "The column test"). Where the cameras are not all
+    /// above the volume, space carving's model, as for [`EvalModel::Reconstructed`].
+    ColumnTest,
     /// The visual hull of the views' object masks: geometry from silhouettes alone.
     VisualHull,
     /// The rig's true geometry voxelised on the same grid ([`EvalRig::true_geometry`];
@@ -151,12 +158,13 @@ pub enum EvalModel {
 }
 
 impl EvalModel {
-    /// Its name on the command line and in reports: `reconstructed`, `refined`, `hull`,
-    /// `truth`.
+    /// Its name on the command line and in reports: `reconstructed`, `refined`, `column`,
+    /// `hull`, `truth`.
     pub fn name(self) -> &'static str {
         match self {
             EvalModel::Reconstructed => "reconstructed",
             EvalModel::Refined => "refined",
+            EvalModel::ColumnTest => "column",
             EvalModel::VisualHull => "hull",
             EvalModel::Truth => "truth",
         }
@@ -376,6 +384,7 @@ pub fn evaluate_rig<R: EvalRig>(
     let geometry = match params.model {
         EvalModel::Reconstructed => Geometry::Reconstructed,
         EvalModel::Refined => Geometry::Refined,
+        EvalModel::ColumnTest => Geometry::ColumnTest,
         EvalModel::VisualHull => Geometry::VisualHull,
         EvalModel::Truth => {
             Geometry::Truth(rig.true_geometry().ok_or_else(|| Error::InvalidParameter {
@@ -553,6 +562,7 @@ type TruthCache = HashMap<u64, (RgbImage, GrayImage)>;
 enum Geometry<'a> {
     Reconstructed,
     Refined,
+    ColumnTest,
     VisualHull,
     Truth(&'a Scene),
 }
@@ -584,14 +594,13 @@ fn measure<R: EvalRig>(
         })
         .collect::<Result<_>>()?;
     let model = match geometry {
-        Geometry::Reconstructed | Geometry::Refined => {
-            let (rec, algorithm) = reconstruct_views(
-                views,
-                &masks,
-                &session.volume()?,
-                params.grid,
-                &ColoringParams::default(),
-            )?;
+        Geometry::Reconstructed | Geometry::Refined | Geometry::ColumnTest => {
+            let coloring = ColoringParams {
+                column_test: matches!(geometry, Geometry::ColumnTest).then(ColumnTest::default),
+                ..ColoringParams::default()
+            };
+            let (rec, algorithm) =
+                reconstruct_views(views, &masks, &session.volume()?, params.grid, &coloring)?;
             let mut model = rec.model;
             if matches!(geometry, Geometry::Refined) && algorithm == VOXEL_COLORING {
                 let walled = TopRefinement {

@@ -276,8 +276,9 @@ struct EvalArgs {
     #[arg(long, default_value_t = 1.0)]
     step_deg: f64,
     /// The geometry the novel views are rendered from: the reconstruction (the system as it
-    /// runs), the reconstruction with its tops refined and their steps walled, the visual hull
-    /// of the object masks, or the true geometry (synthetic rigs only). The capture is the
+    /// runs), the reconstruction with its tops refined and their steps walled, the
+    /// reconstruction with voxel coloring's column test, the visual hull of the object masks,
+    /// or the true geometry (synthetic rigs only). The capture is the
     /// same whichever it is, so comparing them on one --work folder tells what the geometry
     /// costs apart from what the choice of views does.
     #[arg(long, value_enum, default_value = "reconstructed")]
@@ -322,6 +323,8 @@ enum ModelArg {
     /// The reconstruction with its tops refined and their steps walled
     /// (`aibr_voxel::refine_tops`).
     Refined,
+    /// The reconstruction with voxel coloring's column test (`aibr_voxel::ColumnTest`).
+    Column,
     /// The visual hull of the views' object masks.
     Hull,
     /// The true geometry, voxelised (synthetic rigs only): a diagnostic.
@@ -1153,6 +1156,7 @@ fn eval_model(m: ModelArg) -> EvalModel {
     match m {
         ModelArg::Reconstructed => EvalModel::Reconstructed,
         ModelArg::Refined => EvalModel::Refined,
+        ModelArg::Column => EvalModel::ColumnTest,
         ModelArg::Hull => EvalModel::VisualHull,
         ModelArg::Truth => EvalModel::Truth,
     }

@@ -813,6 +813,16 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         rec.iter().zip(&refd).any(|(a, b)| a.1[3] != b.1[3]),
         "{refd:?}"
     );
+    // ... and from the views reconstructed with the column test.
+    let column = small_eval_json(&[&budget[..], &["--model", "column"]].concat(), &work)?;
+    assert_eq!(column["model"], "column");
+    let col = checkpoints(&column);
+    assert_eq!(rec.len(), col.len());
+    assert!(rec.iter().zip(&col).all(|(a, b)| a.0 == b.0));
+    assert!(
+        rec.iter().zip(&col).any(|(a, b)| a.1[3] != b.1[3]),
+        "{col:?}"
+    );
     // Its sessions were captured with the default planner: another width power on the same
     // folder is refused, naming the folder and the field, and leaves them as they were.
     let active = work.join("lambertian-active").join("session.json");
