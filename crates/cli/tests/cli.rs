@@ -802,27 +802,20 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
             "{rec_acc} {rec_comp}"
         );
     }
-    // The same sessions rendered from the reconstruction with its tops refined and walled:
-    // the same views, and models the pass changed.
-    let refined = small_eval_json(&[&budget[..], &["--model", "refined"]].concat(), &work)?;
-    assert_eq!(refined["model"], "refined");
-    let refd = checkpoints(&refined);
-    assert_eq!(rec.len(), refd.len());
-    assert!(rec.iter().zip(&refd).all(|(a, b)| a.0 == b.0));
-    assert!(
-        rec.iter().zip(&refd).any(|(a, b)| a.1[3] != b.1[3]),
-        "{refd:?}"
-    );
-    // ... and from the views reconstructed with the column test.
-    let column = small_eval_json(&[&budget[..], &["--model", "column"]].concat(), &work)?;
-    assert_eq!(column["model"], "column");
-    let col = checkpoints(&column);
-    assert_eq!(rec.len(), col.len());
-    assert!(rec.iter().zip(&col).all(|(a, b)| a.0 == b.0));
-    assert!(
-        rec.iter().zip(&col).any(|(a, b)| a.1[3] != b.1[3]),
-        "{col:?}"
-    );
+    // The same sessions rendered from the reconstruction with its tops refined and walled,
+    // and from the views reconstructed with the column test: the same views, and models the
+    // option changed.
+    for model in ["refined", "column"] {
+        let other = small_eval_json(&[&budget[..], &["--model", model]].concat(), &work)?;
+        assert_eq!(other["model"], model);
+        let figures = checkpoints(&other);
+        assert_eq!(rec.len(), figures.len());
+        assert!(rec.iter().zip(&figures).all(|(a, b)| a.0 == b.0));
+        assert!(
+            rec.iter().zip(&figures).any(|(a, b)| a.1[3] != b.1[3]),
+            "{model}: {figures:?}"
+        );
+    }
     // Its sessions were captured with the default planner: another width power on the same
     // folder is refused, naming the folder and the field, and leaves them as they were.
     let active = work.join("lambertian-active").join("session.json");
