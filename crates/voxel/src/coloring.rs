@@ -7,7 +7,7 @@ use nalgebra::Point3;
 use rayon::prelude::*;
 
 use crate::carving::carve_hull;
-use crate::column::{ColumnTest, Sweep};
+use crate::column::{ColumnTest, KeptSamples, Sweep};
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
 use crate::hull::{Hull, any_mask, behind};
@@ -229,6 +229,8 @@ pub fn voxel_coloring(
         .collect();
     let mut order: Vec<usize> = (0..bx * by).collect();
     let mut work = vec![0u64; bx * by];
+    // With the column test: the samples each kept voxel of the layer was judged by.
+    let mut kept_samples = KeptSamples::default();
     for k in (0..nz).rev() {
         let layer = Layer {
             k,
@@ -269,19 +271,21 @@ pub fn voxel_coloring(
         // In the order the tasks took the blocks: what a block keeps and claims does not
         // depend on it.
         let mut kept = Vec::new();
+        kept_samples.clear();
         for (b, block) in blocks.iter().flatten() {
             work[*b] = block.work;
             stats.silhouette_rejected += block.rejected;
             stats.tested += block.tested;
             kept.extend_from_slice(&block.kept);
+            kept_samples.extend(&block.samples);
             for &(v, fp) in &block.claims {
                 claims[v as usize].push(fp);
             }
         }
         if let Some(test) = &params.column_test {
             let gather = |v: usize, fp: &Footprint| bits[v].gather(&pixels[v], fp);
-            let sweep = Sweep::new(grid, &projectors, &centres, hull.as_ref(), params, gather);
-            let sunk = sweep.drop_sunk(test, &model, &mut kept);
+            let sweep = Sweep::new(grid, &projectors, params, gather);
+            let sunk = sweep.drop_sunk(test, &model, &mut kept, &kept_samples);
             stats.sunk += sunk;
             if sunk > 0 {
                 // The blocks' claims included the sunk voxels': claim the footprints of
@@ -563,6 +567,8 @@ const BLOCK: usize = 8;
 /// What one block of a layer decided.
 struct BlockResult {
     kept: Vec<([usize; 3], [u8; 3])>,
+    /// With the column test, the samples each kept voxel was judged by.
+    samples: KeptSamples,
     /// The footprints the kept voxels claim, with their views. Only views where a claim
     /// can change something are listed: with no inset, those where the voxel's footprint
     /// still had a pixel open when it was tested; with one, those that could still see the
@@ -776,6 +782,7 @@ fn decide_block(
     let size = (i1 - i0) * (j1 - j0);
     let mut out = BlockResult {
         kept: Vec::new(),
+        samples: KeptSamples::default(),
         claims: Vec::new(),
         rejected: 0,
         tested: 0,
@@ -927,8 +934,9 @@ fn decide_block(
         }
         let (i, j) = (i0 + x % width, j0 + x / width);
         let voxel = grid.centre([i, j, layer.k]);
+        let samples = &scratch.samples[x * n..x * n + count];
         if let Some(c) = decide(
-            &scratch.samples[x * n..x * n + count],
+            samples,
             centres,
             &voxel,
             &params.criterion,
@@ -936,6 +944,9 @@ fn decide_block(
             &mut azimuths[x * n..(x + 1) * n],
         ) {
             out.kept.push(([i, j, layer.k], c));
+            if params.column_test.is_some() {
+                out.samples.push(samples);
+            }
             // It claims its whole footprints (see `claim_where_open`).
             let open = &scratch.open[x * words..(x + 1) * words];
             for (a, &v) in scratch.active.iter().enumerate() {
@@ -979,8 +990,11 @@ pub fn voxel_coloring_reference(
             carve_hull(&mut model, &projectors, &pixels);
             (Hull::of_model(&model), cosine)
         });
+    // With the column test: the samples each kept voxel of the layer was judged by.
+    let mut kept_samples = KeptSamples::default();
     for k in (0..nz).rev() {
         let mut layer = Vec::new();
+        kept_samples.clear();
         for j in 0..ny {
             for i in 0..nx {
                 // The voxel's centre in view `v`, its footprint there, and its sampled pixels.
@@ -1020,13 +1034,16 @@ pub fn voxel_coloring_reference(
                 stats.tested += 1;
                 if let Some(c) = judge.decide(&samples, &centres, &x, &params.criterion) {
                     layer.push(([i, j, k], c));
+                    if params.column_test.is_some() {
+                        kept_samples.push(&samples);
+                    }
                 }
             }
         }
         if let Some(test) = &params.column_test {
             let gather = |v: usize, fp: &Footprint| pixels[v].gather(fp, &claimed[v]);
-            let sweep = Sweep::new(grid, &projectors, &centres, hull.as_ref(), params, gather);
-            stats.sunk += sweep.drop_sunk(test, &model, &mut layer);
+            let sweep = Sweep::new(grid, &projectors, params, gather);
+            stats.sunk += sweep.drop_sunk(test, &model, &mut layer, &kept_samples);
         }
         for &(idx, c) in &layer {
             model.set(idx, c);

@@ -13,8 +13,8 @@
 //! wide baselines included, the colours agree best at the true height.
 //!
 //! With the test on, a voxel the criterion keeps whose column above is empty in the model
-//! so far (a top) is asked one more question before it is kept. Over the views that sample
-//! it, the robust spread of its colours (for each view the median of its RMS differences to
+//! so far (a top) is asked one more question before it is kept. Over the views the criterion
+//! judged it by, the robust spread of its colours (for each view the median of its RMS differences to
 //! the others, then the median over the views, so a highlight in a few views does not count)
 //! is compared with the same spread of each of the [`ColumnTest::depth`] voxels below it,
 //! each sampled from the same views at its own footprint's unclaimed pixels. When the best of
@@ -38,13 +38,11 @@
 //! differences in grey levels of 8-bit images, RMS over R, G and B, as in the criteria of
 //! [`crate::Criterion`].
 
-use nalgebra::Point3;
 use rayon::prelude::*;
 
 use crate::coloring::ColoringParams;
 use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
-use crate::hull::{Hull, behind};
 use crate::kernel::{Footprint, Projector, Sample};
 use crate::refine::Spreads;
 
@@ -113,14 +111,46 @@ impl ColumnTest {
     }
 }
 
+/// The samples a kernel judged each kept voxel of a layer by, one voxel's after another:
+/// the column test compares a top with the voxels below it in those views.
+#[derive(Debug, Default)]
+pub(crate) struct KeptSamples {
+    samples: Vec<Sample>,
+    /// Where each voxel's samples end in `samples`.
+    ends: Vec<usize>,
+}
+
+impl KeptSamples {
+    /// Forgets every voxel's samples.
+    pub(crate) fn clear(&mut self) {
+        self.samples.clear();
+        self.ends.clear();
+    }
+
+    /// Adds the next kept voxel's samples.
+    pub(crate) fn push(&mut self, samples: &[Sample]) {
+        self.samples.extend_from_slice(samples);
+        self.ends.push(self.samples.len());
+    }
+
+    /// Adds every voxel of `other` after those here.
+    pub(crate) fn extend(&mut self, other: &KeptSamples) {
+        let base = self.samples.len();
+        self.samples.extend_from_slice(&other.samples);
+        self.ends.extend(other.ends.iter().map(|e| base + e));
+    }
+
+    /// The samples of kept voxel `i`.
+    fn of(&self, i: usize) -> &[Sample] {
+        let start = if i == 0 { 0 } else { self.ends[i - 1] };
+        &self.samples[start..self.ends[i]]
+    }
+}
+
 /// What the column test needs of a kernel's state while it decides a layer.
 pub(crate) struct Sweep<'a, G> {
     grid: &'a VoxelGrid,
     projectors: &'a [Projector],
-    centres: &'a [Point3<f64>],
-    /// The boundary of the visual hull and the cosine of
-    /// [`crate::ColoringParams::behind_hull`], when that is on.
-    hull: Option<(&'a Hull, f64)>,
     /// [`crate::ColoringParams::sample_inset`].
     inset: f32,
     /// [`crate::ColoringParams::min_views`].
@@ -134,21 +164,16 @@ impl<'a, G> Sweep<'a, G>
 where
     G: Fn(usize, &Footprint) -> ([u32; 3], u32) + Sync,
 {
-    /// A kernel's state: its views' projectors and centres, its hull with
-    /// [`crate::ColoringParams::behind_hull`]'s cosine, its parameters and its gather.
+    /// A kernel's state: its views' projectors, its parameters and its gather.
     pub(crate) fn new(
         grid: &'a VoxelGrid,
         projectors: &'a [Projector],
-        centres: &'a [Point3<f64>],
-        hull: Option<&'a (Hull, f64)>,
         params: &ColoringParams,
         gather: G,
     ) -> Self {
         Sweep {
             grid,
             projectors,
-            centres,
-            hull: hull.map(|(h, cosine)| (h, *cosine)),
             inset: params.sample_inset,
             min_views: params.min_views,
             gather,
@@ -156,14 +181,15 @@ where
     }
 
     /// Removes from `kept`, the voxels the criterion keeps in one layer (`model` holds the
-    /// layers above), those the test sinks; returns how many.
+    /// layers above) judged by `samples`, those the test sinks; returns how many.
     pub(crate) fn drop_sunk(
         &self,
         test: &ColumnTest,
         model: &VoxelModel,
         kept: &mut Vec<([usize; 3], [u8; 3])>,
+        samples: &KeptSamples,
     ) -> usize {
-        let sinking = self.sinking(test, model, kept);
+        let sinking = self.sinking(test, model, kept, samples);
         let before = kept.len();
         let mut sinks = sinking.into_iter();
         kept.retain(|_| !sinks.next().unwrap_or(false));
@@ -177,14 +203,16 @@ where
         test: &ColumnTest,
         model: &VoxelModel,
         kept: &[([usize; 3], [u8; 3])],
+        samples: &KeptSamples,
     ) -> Vec<bool> {
         let nz = self.grid.dims()[2];
         let top = |[i, j, k]: [usize; 3]| k + 1 >= nz || !model.is_occupied([i, j, k + 1]);
         // Per kept voxel: `None` when it is no top, else whether it would sink.
         let would: Vec<Option<bool>> = kept
             .par_iter()
-            .map_init(Judging::default, |scratch, &(idx, _)| {
-                top(idx).then(|| self.would_sink(test, idx, scratch))
+            .enumerate()
+            .map_init(Judging::default, |scratch, (n, &(idx, _))| {
+                top(idx).then(|| self.would_sink(test, idx, samples.of(n), scratch))
             })
             .collect();
         // The tops of the layer by column, for the neighbour count.
@@ -216,24 +244,16 @@ where
             .collect()
     }
 
-    /// Whether the top `idx` would sink, before its neighbours are asked.
-    fn would_sink(&self, test: &ColumnTest, idx: [usize; 3], scratch: &mut Judging) -> bool {
-        let [i, j, k] = idx;
-        let grid = self.grid;
-        let x = grid.centre(idx);
-        let normal = self.hull.map(|(h, cosine)| (h.normal(idx), cosine));
-        // The views that sample the top, as the criterion took them, and its colours there.
-        scratch.views.clear();
+    /// Whether the top `idx`, judged by `own`, would sink, before its neighbours are asked.
+    fn would_sink(
+        &self,
+        test: &ColumnTest,
+        [i, j, k]: [usize; 3],
+        own: &[Sample],
+        scratch: &mut Judging,
+    ) -> bool {
         scratch.colours.clear();
-        for (v, p) in self.projectors.iter().enumerate() {
-            if normal.is_some_and(|(n, cosine)| behind(n, &self.centres[v], &x, cosine)) {
-                continue;
-            }
-            if let Some(c) = self.colour(p, v, [i, j, k]) {
-                scratch.views.push(v);
-                scratch.colours.push(c);
-            }
-        }
+        scratch.colours.extend(own.iter().map(|s| s.colour));
         if scratch.colours.len() < self.min_views.max(2) {
             return false;
         }
@@ -241,13 +261,13 @@ where
         if Spreads::at_most(&scratch.colours, test.margin) {
             return false;
         }
-        let own = scratch.spreads.robust(&scratch.colours);
+        let spread = scratch.spreads.robust(&scratch.colours);
         // The top would sink when some candidate's spread is at most this: the first such
         // candidate settles it.
-        let bar = (test.ratio * own).min(own - test.margin);
+        let bar = (test.ratio * spread).min(spread - test.margin);
         (1..=test.depth.min(k)).any(|d| {
             scratch.colours.clear();
-            for &v in &scratch.views {
+            for v in own.iter().map(|s| s.view) {
                 if let Some(c) = self.colour(&self.projectors[v], v, [i, j, k - d]) {
                     scratch.colours.push(c);
                 }
@@ -268,7 +288,6 @@ where
 /// Buffers reused from one top to the next on a thread.
 #[derive(Default)]
 struct Judging {
-    views: Vec<usize>,
     colours: Vec<[f32; 3]>,
     spreads: Spreads,
 }
