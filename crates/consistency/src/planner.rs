@@ -184,9 +184,9 @@ pub fn plan_next_aimed(
 /// returns recorded views only. The arcs are ranked as there; the proposal is the pan of
 /// `reachable` inside the chosen arc, inside the range and at least a step from every existing
 /// view, nearest to where [`plan_next_aimed`] would split it (an aim within reach, else the
-/// middle). An arc that holds no such pan is passed over, as an
-/// arc too short to split is: asking for its middle would bring back a view from another
-/// arc, and the arc would stay the worst, so every later request would too.
+/// middle). An arc that holds no such pan is passed over, as an arc too short to split is:
+/// asking for its middle would bring back a view from another arc, and the arc would stay the
+/// worst, so every later request would too.
 ///
 /// ```
 /// use aibr_camera::{Angle, PanRange};
