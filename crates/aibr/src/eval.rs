@@ -185,6 +185,8 @@ pub struct EvalParams {
     pub step: Angle,
     /// The geometry the novel views are rendered from (default: the reconstruction).
     pub model: EvalModel,
+    /// How the novel views are rendered (default: [`RenderParams::default`]).
+    pub render: RenderParams,
 }
 
 impl Default for EvalParams {
@@ -199,6 +201,7 @@ impl Default for EvalParams {
             grid: 128,
             step: Angle::from_degrees(1.0),
             model: EvalModel::Reconstructed,
+            render: RenderParams::default(),
         }
     }
 }
@@ -628,7 +631,7 @@ fn measure<R: EvalRig>(
             image: v.image.clone(),
         })
         .collect();
-    let renderer = Renderer::new(&model, sources, RenderParams::default())?;
+    let renderer = Renderer::new(&model, sources, params.render)?;
     let mut pans: Vec<Angle> = views
         .iter()
         .map(|v| Angle::from_radians(v.record.pan_rad))
@@ -776,6 +779,7 @@ mod tests {
             grid: 48,
             step: Angle::from_degrees(20.0),
             model: EvalModel::Reconstructed,
+            render: RenderParams::default(),
         };
         let measure = |scene: &str| -> Result<Checkpoint> {
             let work = std::env::temp_dir()

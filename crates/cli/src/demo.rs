@@ -47,6 +47,7 @@ fn setup(quick: bool) -> Setup {
                 grid: 48,
                 step: Angle::from_degrees(8.0),
                 model: EvalModel::Reconstructed,
+                ..EvalParams::default()
             },
             model_grid: 48,
         }
@@ -58,6 +59,7 @@ fn setup(quick: bool) -> Setup {
                 grid: 96,
                 step: Angle::from_degrees(5.0),
                 model: EvalModel::Reconstructed,
+                ..EvalParams::default()
             },
             model_grid: 96,
         }

@@ -289,6 +289,35 @@ fn reconstruct_and_render_a_session() -> TestResult {
         changed > geometry / 2,
         "{changed} of {geometry} refined pixels changed"
     );
+    // The refinement's reach: the default given by name renders the same image; a deeper
+    // one changes only pixels on the model's surface; one out of range, or with the
+    // refinement off, is refused and writes nothing.
+    let four = dir.join("reach4.png");
+    assert_success(&render(&[&view[..], &["--reach", "4"]].concat(), &four)?);
+    assert_eq!(image::open(&four)?.to_rgb8(), rendered);
+    let deep = dir.join("reach8.png");
+    assert_success(&render(&[&view[..], &["--reach", "8"]].concat(), &deep)?);
+    let deep = image::open(&deep)?.to_rgb8();
+    let mut moved = 0;
+    for ((d, r), c) in deep.pixels().zip(rendered.pixels()).zip(coverage.pixels()) {
+        if c.0[0] == 255 {
+            moved += usize::from(d != r);
+        } else {
+            assert_eq!(d, r);
+        }
+    }
+    assert!(moved > 0, "a reach of 8 voxels changed no pixel");
+    let refused_reach = dir.join("reach_refused.png");
+    for bad in [
+        &["--reach=-1"][..],
+        &["--reach", "65"],
+        &["--reach", "6", "--no-refine"],
+    ] {
+        let out = render(&[&view[..], bad].concat(), &refused_reach)?;
+        assert!(!out.status.success(), "{bad:?} was accepted");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--reach"));
+    }
+    assert!(!refused_reach.exists());
     // From the shell as reconstructed instead of closed and filled.
     let shell = dir.join("shell.png");
     assert_success(&render(&[&view[..], &["--no-fill"]].concat(), &shell)?);
@@ -816,6 +845,21 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
             "{model}: {figures:?}"
         );
     }
+    // Rendered with a deeper refinement: the same views and models, other renders.
+    assert_eq!(summary["reach_voxels"].as_f64(), Some(4.0));
+    let deep = small_eval_json(&[&budget[..], &["--reach", "8"]].concat(), &work)?;
+    assert_eq!(deep["reach_voxels"].as_f64(), Some(8.0));
+    let figures = checkpoints(&deep);
+    assert_eq!(rec.len(), figures.len());
+    assert!(
+        rec.iter()
+            .zip(&figures)
+            .all(|(a, b)| a.0 == b.0 && a.1[1..] == b.1[1..])
+    );
+    assert!(
+        rec.iter().zip(&figures).any(|(a, b)| a.1[0] != b.1[0]),
+        "{figures:?}"
+    );
     // Its sessions were captured with the default planner: another width power on the same
     // folder is refused, naming the folder and the field, and leaves them as they were.
     let active = work.join("lambertian-active").join("session.json");
