@@ -272,19 +272,23 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert!(geometry > 2_000, "{geometry} geometry pixels");
     assert!(coverage.pixels().any(|p| p.0[0] == 128));
 
-    // Without the refinement only the pixels on the model's surface change: the backdrop,
-    // rendered on the focal surface, is the same.
+    // How many pixels on the model's surface differ between `other` and the first render;
+    // the others, rendered on the focal surface, must be the same.
+    let changed_on_surface = |other: &image::RgbImage| {
+        let mut changed = 0;
+        for ((p, r), c) in other.pixels().zip(rendered.pixels()).zip(coverage.pixels()) {
+            if c.0[0] == 255 {
+                changed += usize::from(p != r);
+            } else {
+                assert_eq!(p, r);
+            }
+        }
+        changed
+    };
+    // Without the refinement only the pixels on the model's surface change.
     let plain = dir.join("plain.png");
     assert_success(&render(&[&view[..], &["--no-refine"]].concat(), &plain)?);
-    let plain = image::open(&plain)?.to_rgb8();
-    let mut changed = 0;
-    for ((p, r), c) in plain.pixels().zip(rendered.pixels()).zip(coverage.pixels()) {
-        if c.0[0] == 255 {
-            changed += usize::from(p != r);
-        } else {
-            assert_eq!(p, r);
-        }
-    }
+    let changed = changed_on_surface(&image::open(&plain)?.to_rgb8());
     assert!(
         changed > geometry / 2,
         "{changed} of {geometry} refined pixels changed"
@@ -297,15 +301,7 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert_eq!(image::open(&four)?.to_rgb8(), rendered);
     let deep = dir.join("reach8.png");
     assert_success(&render(&[&view[..], &["--reach", "8"]].concat(), &deep)?);
-    let deep = image::open(&deep)?.to_rgb8();
-    let mut moved = 0;
-    for ((d, r), c) in deep.pixels().zip(rendered.pixels()).zip(coverage.pixels()) {
-        if c.0[0] == 255 {
-            moved += usize::from(d != r);
-        } else {
-            assert_eq!(d, r);
-        }
-    }
+    let moved = changed_on_surface(&image::open(&deep)?.to_rgb8());
     assert!(moved > 0, "a reach of 8 voxels changed no pixel");
     let refused_reach = dir.join("reach_refused.png");
     for bad in [
