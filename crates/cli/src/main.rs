@@ -285,9 +285,9 @@ struct EvalArgs {
     model: ModelArg,
     /// How far behind the model's surface the renderer's depth refinement searches, voxels
     /// (default 4, at most 64). Models from few views come out fatter than that: a reach of 6
-    /// renders four of the five catalogue scenes 0.1-0.4 dB better from 12 views at the same
-    /// cost a frame, and chair's thin parts a little worse (docs/render.md, "The refinement's
-    /// reach").
+    /// renders four of the five catalogue scenes 0.1-0.4 dB better from 12 views, in about
+    /// the same time a frame, and chair's thin parts a little worse (docs/render.md, "The
+    /// refinement's reach").
     #[arg(long, value_name = "VOXELS", value_parser = parse_reach)]
     reach: Option<f64>,
     /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
@@ -466,9 +466,9 @@ struct RenderArgs {
     no_refine: bool,
     /// How far behind the model's surface the renderer's depth refinement searches, voxels
     /// (default 4, at most 64). Models from few views come out fatter than that: a reach of 6
-    /// renders four of the five catalogue scenes 0.1-0.4 dB better from 12 views at the same
-    /// cost a frame, and chair's thin parts a little worse (docs/render.md, "The refinement's
-    /// reach").
+    /// renders four of the five catalogue scenes 0.1-0.4 dB better from 12 views, in about
+    /// the same time a frame, and chair's thin parts a little worse (docs/render.md, "The
+    /// refinement's reach").
     #[arg(long, value_name = "VOXELS", conflicts_with = "no_refine", value_parser = parse_reach)]
     reach: Option<f64>,
     /// Render from the model as reconstructed, a shell with gaps, instead of the shell closed
