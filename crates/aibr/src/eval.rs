@@ -384,6 +384,8 @@ pub fn evaluate_rig<R: EvalRig>(
             reason: "the evaluation step must be positive".into(),
         });
     }
+    // The renderer's parameters too, before any view is captured.
+    params.render.validate()?;
     let geometry = match params.model {
         EvalModel::Reconstructed => Geometry::Reconstructed,
         EvalModel::Refined => Geometry::Refined,
@@ -846,6 +848,32 @@ mod tests {
         assert_eq!(run(1, 48), "initial");
         assert_eq!(run(12, 8), "max");
         // Nothing was made for a refused evaluation.
+        assert!(!work.exists());
+    }
+
+    #[test]
+    fn bad_render_params_are_refused_before_capturing() {
+        let work = std::env::temp_dir().join(format!("aibr-eval-render-{}", std::process::id()));
+        let mut render = RenderParams::default();
+        if let Some(r) = render.refine.as_mut() {
+            r.back_voxels = f64::NAN;
+        }
+        let params = EvalParams {
+            render,
+            ..EvalParams::default()
+        };
+        match evaluate(
+            "lambertian",
+            &[Strategy::Uniform],
+            &params,
+            &work,
+            &mut |_| {},
+        ) {
+            Err(Error::Render(aibr_render::Error::InvalidParameter { name, .. })) => {
+                assert_eq!(name, "refine.back_voxels")
+            }
+            other => panic!("{other:?}"),
+        }
         assert!(!work.exists());
     }
 

@@ -94,6 +94,57 @@ impl Default for RenderParams {
     }
 }
 
+impl RenderParams {
+    /// Checks what [`Renderer::new`] would refuse: `k` or `candidates` zero, or more than
+    /// [`MAX_CANDIDATES`] candidates; a refinement of fewer than 2 or more than 64 depths, an
+    /// empty or non-finite span of depths, or a window radius over 16 pixels; a
+    /// [`RenderParams::fill`] closing over [`MAX_FILL_CLOSING`]. Each is
+    /// [`Error::InvalidParameter`], naming the field and its value.
+    pub fn validate(&self) -> Result<()> {
+        if self.k == 0 || self.candidates == 0 || self.candidates > MAX_CANDIDATES {
+            return Err(Error::InvalidParameter {
+                name: "candidates",
+                value: self.candidates as f64,
+                reason: "k and candidates must be positive, candidates at most 16",
+            });
+        }
+        if let Some(r) = self.refine {
+            if !(2..=64).contains(&r.steps) {
+                return Err(Error::InvalidParameter {
+                    name: "refine.steps",
+                    value: r.steps as f64,
+                    reason: "between 2 and 64 depths",
+                });
+            }
+            if !(r.front_voxels.is_finite()
+                && r.back_voxels.is_finite()
+                && -r.front_voxels < r.back_voxels)
+            {
+                return Err(Error::InvalidParameter {
+                    name: "refine.back_voxels",
+                    value: r.back_voxels,
+                    reason: "the searched depths must be finite and not empty",
+                });
+            }
+            if r.radius > 16 {
+                return Err(Error::InvalidParameter {
+                    name: "refine.radius",
+                    value: r.radius as f64,
+                    reason: "at most 16 pixels",
+                });
+            }
+        }
+        if let Some(closing) = self.fill.filter(|&c| c > MAX_FILL_CLOSING) {
+            return Err(Error::InvalidParameter {
+                name: "fill",
+                value: closing as f64,
+                reason: "a closing of at most 8 voxels",
+            });
+        }
+        Ok(())
+    }
+}
+
 /// The largest closing [`RenderParams::fill`] takes.
 pub const MAX_FILL_CLOSING: usize = 8;
 
@@ -340,46 +391,7 @@ impl<'a> Renderer<'a> {
         if sources.is_empty() {
             return Err(Error::NoSources);
         }
-        if params.k == 0 || params.candidates == 0 || params.candidates > MAX_CANDIDATES {
-            return Err(Error::InvalidParameter {
-                name: "candidates",
-                value: params.candidates as f64,
-                reason: "k and candidates must be positive, candidates at most 16",
-            });
-        }
-        if let Some(r) = params.refine {
-            if !(2..=64).contains(&r.steps) {
-                return Err(Error::InvalidParameter {
-                    name: "refine.steps",
-                    value: r.steps as f64,
-                    reason: "between 2 and 64 depths",
-                });
-            }
-            if !(r.front_voxels.is_finite()
-                && r.back_voxels.is_finite()
-                && -r.front_voxels < r.back_voxels)
-            {
-                return Err(Error::InvalidParameter {
-                    name: "refine.back_voxels",
-                    value: r.back_voxels,
-                    reason: "the searched depths must be finite and not empty",
-                });
-            }
-            if r.radius > 16 {
-                return Err(Error::InvalidParameter {
-                    name: "refine.radius",
-                    value: r.radius as f64,
-                    reason: "at most 16 pixels",
-                });
-            }
-        }
-        if let Some(closing) = params.fill.filter(|&c| c > MAX_FILL_CLOSING) {
-            return Err(Error::InvalidParameter {
-                name: "fill",
-                value: closing as f64,
-                reason: "a closing of at most 8 voxels",
-            });
-        }
+        params.validate()?;
         let model = match params.fill {
             Some(closing) => Cow::Owned(model.filled(closing)),
             None => Cow::Borrowed(model),
