@@ -210,6 +210,34 @@ enum OnOff {
     Off,
 }
 
+/// How deep the renderer's depth refinement searches (`aibr render` and `aibr eval`).
+#[derive(clap::Args)]
+struct ReachArg {
+    /// How far behind the model's surface the renderer's depth refinement searches, voxels
+    /// (default 4, at most 64). Models from few views come out fatter than that: a reach of 6
+    /// renders four of the five catalogue scenes 0.1-0.4 dB better from 12 views, in about
+    /// the same time a frame, and chair's thin parts a little worse (docs/render.md, "The
+    /// refinement's reach").
+    #[arg(long, value_name = "VOXELS", value_parser = parse_reach)]
+    reach: Option<f64>,
+}
+
+impl ReachArg {
+    /// The renderer's defaults, the refinement reaching as far as asked.
+    fn render_params(&self) -> aibr::render::RenderParams {
+        let mut params = aibr::render::RenderParams::default();
+        if let (Some(r), Some(back)) = (params.refine.as_mut(), self.reach) {
+            r.back_voxels = back;
+        }
+        params
+    }
+
+    /// The reach the renderer takes: the one asked for, else its default.
+    fn voxels(&self) -> Option<f64> {
+        self.render_params().refine.map(|r| r.back_voxels)
+    }
+}
+
 /// How the active planner ranks arcs (`aibr capture` and `aibr eval`).
 #[derive(clap::Args)]
 struct PlanArgs {
@@ -283,13 +311,8 @@ struct EvalArgs {
     /// costs apart from what the choice of views does.
     #[arg(long, value_enum, default_value = "reconstructed")]
     model: ModelArg,
-    /// How far behind the model's surface the renderer's depth refinement searches, voxels
-    /// (default 4, at most 64). Models from few views come out fatter than that: a reach of 6
-    /// renders four of the five catalogue scenes 0.1-0.4 dB better from 12 views, in about
-    /// the same time a frame, and chair's thin parts a little worse (docs/render.md, "The
-    /// refinement's reach").
-    #[arg(long, value_name = "VOXELS", value_parser = parse_reach)]
-    reach: Option<f64>,
+    #[command(flatten)]
+    reach: ReachArg,
     /// Folder for the sessions the evaluation captures (kept; a rerun reuses them).
     #[arg(long, default_value = "aibr-eval")]
     work: PathBuf,
@@ -462,15 +485,10 @@ struct RenderArgs {
     /// Render at the model's surface, without the depth refinement: about a quarter less time
     /// a frame, but blurrier texture (1-1.7 dB lower masked PSNR on the catalogue's textured
     /// objects at 24 views). For quick looks and long sweeps.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "reach")]
     no_refine: bool,
-    /// How far behind the model's surface the renderer's depth refinement searches, voxels
-    /// (default 4, at most 64). Models from few views come out fatter than that: a reach of 6
-    /// renders four of the five catalogue scenes 0.1-0.4 dB better from 12 views, in about
-    /// the same time a frame, and chair's thin parts a little worse (docs/render.md, "The
-    /// refinement's reach").
-    #[arg(long, value_name = "VOXELS", conflicts_with = "no_refine", value_parser = parse_reach)]
-    reach: Option<f64>,
+    #[command(flatten)]
+    reach: ReachArg,
     /// Render from the model as reconstructed, a shell with gaps, instead of the shell closed
     /// and filled (rays through a gap then meet what lies behind it).
     #[arg(long)]
@@ -1157,7 +1175,7 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
         grid: a.grid,
         step: Angle::from_degrees(a.step_deg),
         model: eval_model(a.model),
-        render: eval_render(a),
+        render: a.reach.render_params(),
     };
     // No folder is made here: the sessions make theirs, so a refused evaluation leaves none.
     let bar = ProgressBar::new_spinner();
@@ -1178,28 +1196,6 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
     };
     bar.finish_and_clear();
     Ok(results)
-}
-
-/// The renderer's parameters: the defaults, without the depth refinement unless `refine`,
-/// the refinement reaching `reach` voxels behind the surface when given, and without the
-/// model's fill unless `fill`.
-fn render_params(refine: bool, reach: Option<f64>, fill: bool) -> aibr::render::RenderParams {
-    let mut params = aibr::render::RenderParams::default();
-    if let (Some(r), Some(back)) = (params.refine.as_mut(), reach) {
-        r.back_voxels = back;
-    }
-    if !refine {
-        params.refine = None;
-    }
-    if !fill {
-        params.fill = None;
-    }
-    params
-}
-
-/// How `aibr eval` renders its novel views.
-fn eval_render(a: &EvalArgs) -> aibr::render::RenderParams {
-    render_params(true, a.reach, true)
 }
 
 fn eval_model(m: ModelArg) -> EvalModel {
@@ -1224,7 +1220,7 @@ fn eval(a: EvalArgs) -> Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({
                 "rig": a.rig,
                 "model": eval_model(a.model).name(),
-                "reach_voxels": eval_render(&a).refine.map(|r| r.back_voxels),
+                "reach_voxels": a.reach.voxels(),
                 "results": results_json(&results, arc.as_ref()),
             }))?
         );
@@ -1426,7 +1422,7 @@ fn eval_turns(a: &EvalArgs, turns: &[f64]) -> Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({
                 "rig": a.rig,
                 "model": eval_model(a.model).name(),
-                "reach_voxels": eval_render(a).refine.map(|r| r.back_voxels),
+                "reach_voxels": a.reach.voxels(),
                 "turns": turns,
                 "active_minus_uniform": summary,
             }))?
@@ -1724,7 +1720,13 @@ fn render(a: RenderArgs) -> Result<()> {
     // Decoded once, for both the model and the renderer.
     let views = session.load_views()?;
     let (rec, _) = aibr::reconstruct_loaded(&session, &views, a.grid, &ColoringParams::default())?;
-    let params = render_params(!a.no_refine, a.reach, !a.no_fill);
+    let mut params = a.reach.render_params();
+    if a.no_refine {
+        params.refine = None;
+    }
+    if a.no_fill {
+        params.fill = None;
+    }
     let renderer = aibr::renderer_with(&views, &rec.model, params)?;
     let calibration = session.calibration()?;
     let mut view = aibr::render::RenderedView::new(calibration.camera.size);
