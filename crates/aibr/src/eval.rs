@@ -822,58 +822,43 @@ mod tests {
     }
 
     #[test]
-    fn bad_counts_are_named_before_the_checkpoints() {
-        let work = std::env::temp_dir().join(format!("aibr-eval-counts-{}", std::process::id()));
-        let run = |initial: usize, max: usize| {
-            let params = EvalParams {
-                capture: CaptureParams {
-                    initial,
-                    max,
-                    ..CaptureParams::default()
-                },
-                checkpoints: vec![initial, max],
-                ..EvalParams::default()
-            };
-            match evaluate(
-                "lambertian",
-                &[Strategy::Uniform],
-                &params,
-                &work,
-                &mut |_| {},
-            ) {
-                Err(Error::InvalidParameter { name, .. }) => name,
-                other => panic!("{initial}..{max}: {other:?}"),
-            }
+    fn bad_parameters_are_named_before_anything_is_captured() {
+        let work = std::env::temp_dir().join(format!("aibr-eval-refused-{}", std::process::id()));
+        // The parameter `evaluate` names when it refuses `params`.
+        let refused = |params: &EvalParams| match evaluate(
+            "lambertian",
+            &[Strategy::Uniform],
+            params,
+            &work,
+            &mut |_| {},
+        ) {
+            Err(Error::InvalidParameter { name, .. })
+            | Err(Error::Render(aibr_render::Error::InvalidParameter { name, .. })) => name,
+            other => panic!("{other:?}"),
         };
-        assert_eq!(run(1, 48), "initial");
-        assert_eq!(run(12, 8), "max");
-        // Nothing was made for a refused evaluation.
-        assert!(!work.exists());
-    }
-
-    #[test]
-    fn bad_render_params_are_refused_before_capturing() {
-        let work = std::env::temp_dir().join(format!("aibr-eval-render-{}", std::process::id()));
+        // The counts before the checkpoints.
+        let counts = |initial: usize, max: usize| EvalParams {
+            capture: CaptureParams {
+                initial,
+                max,
+                ..CaptureParams::default()
+            },
+            checkpoints: vec![initial, max],
+            ..EvalParams::default()
+        };
+        assert_eq!(refused(&counts(1, 48)), "initial");
+        assert_eq!(refused(&counts(12, 8)), "max");
+        // The renderer's parameters before any view is captured.
         let mut render = RenderParams::default();
         if let Some(r) = render.refine.as_mut() {
             r.back_voxels = f64::NAN;
         }
-        let params = EvalParams {
+        let bad_render = EvalParams {
             render,
             ..EvalParams::default()
         };
-        match evaluate(
-            "lambertian",
-            &[Strategy::Uniform],
-            &params,
-            &work,
-            &mut |_| {},
-        ) {
-            Err(Error::Render(aibr_render::Error::InvalidParameter { name, .. })) => {
-                assert_eq!(name, "refine.back_voxels")
-            }
-            other => panic!("{other:?}"),
-        }
+        assert_eq!(refused(&bad_render), "refine.back_voxels");
+        // Nothing was made for a refused evaluation.
         assert!(!work.exists());
     }
 
