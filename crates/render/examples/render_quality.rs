@@ -10,7 +10,8 @@
 //! `CRITERION=classic:T` or `CRITERION=angular:T:W` (grey levels, degrees) replaces voxel
 //! coloring's default criterion.
 //! `REFINE=0` turns the renderer's depth refinement off, `REFINE=front:back:steps:radius`
-//! sets it (voxels, voxels, depths, pixels). `FILL=0` renders from the model as given instead
+//! sets it (voxels, voxels, depths, pixels), `REFINE=front:back:steps:radius:penalty` also its
+//! penalty on depths beyond 4 voxels ([`aibr_render::DepthRefinement::penalty`]). `FILL=0` renders from the model as given instead
 //! of closed and filled, `FILL=N` closes it with a cube of `2N + 1` voxels
 //! ([`RenderParams::fill`]). `TOPS=1` runs [`aibr_voxel::refine_tops`] on the model first,
 //! `TOPS=walls` the same with its steps walled ([`aibr_voxel::TopRefinement::walls`]).
@@ -162,20 +163,28 @@ fn criterion() -> Result<Criterion, Box<dyn std::error::Error>> {
     }
 }
 
-/// `REFINE=0` (off), `REFINE=1` (defaults) or `REFINE=front:back:steps:radius`.
+/// `REFINE=0` (off), `REFINE=1` (defaults) or `REFINE=front:back:steps:radius[:penalty]`.
 fn refinement(
     spec: &str,
 ) -> Result<Option<aibr_render::DepthRefinement>, Box<dyn std::error::Error>> {
     let parts: Vec<&str> = spec.split(':').collect();
-    match parts.as_slice() {
-        ["0"] => Ok(None),
-        ["1"] => Ok(Some(aibr_render::DepthRefinement::default())),
-        [f, b, s, r] => Ok(Some(aibr_render::DepthRefinement {
+    let custom = |[f, b, s, r]: [&str; 4], penalty: &str| {
+        Ok::<_, Box<dyn std::error::Error>>(Some(aibr_render::DepthRefinement {
             front_voxels: f.parse()?,
             back_voxels: b.parse()?,
             steps: s.parse()?,
             radius: r.parse()?,
-        })),
-        _ => Err(format!("REFINE={spec}: expected 0, 1 or front:back:steps:radius").into()),
+            penalty: penalty.parse()?,
+            ..Default::default()
+        }))
+    };
+    match parts.as_slice() {
+        ["0"] => Ok(None),
+        ["1"] => Ok(Some(aibr_render::DepthRefinement::default())),
+        [f, b, s, r] => custom([f, b, s, r], "0"),
+        [f, b, s, r, p] => custom([f, b, s, r], p),
+        _ => {
+            Err(format!("REFINE={spec}: expected 0, 1 or front:back:steps:radius[:penalty]").into())
+        }
     }
 }

@@ -276,6 +276,36 @@ fn depth_refinement_moves_surfaces_to_the_truth() -> TestResult {
     assert!(median1 < 0.8 * median0, "{median0} -> {median1}");
     assert!(psnr1 > psnr0 + 0.5, "{psnr0} -> {psnr1}");
 
+    // The penalty keeps the search from the depths beyond its free depth and leaves the
+    // others alone: searching 8.5 voxels deep in 13 depths (the default's 7, then 6 more
+    // beyond 4 voxels), the largest penalty renders nearly the default's image, and without
+    // it many object pixels change.
+    let default_image = refined.render(&camera)?.rgb;
+    let deep = aibr_render::DepthRefinement {
+        back_voxels: 8.5,
+        steps: 13,
+        ..Default::default()
+    };
+    let changed = |penalty: f64| -> Result<usize, Box<dyn std::error::Error>> {
+        let params = RenderParams {
+            refine: Some(aibr_render::DepthRefinement { penalty, ..deep }),
+            ..RenderParams::default()
+        };
+        let image = Renderer::new(&s.model, s.sources.clone(), params)?
+            .render(&camera)?
+            .rgb;
+        Ok(image
+            .pixels()
+            .zip(default_image.pixels())
+            .filter(|(a, b)| a != b)
+            .count())
+    };
+    let (free, penalised) = (changed(0.0)?, changed(100.0)?);
+    eprintln!(
+        "pixels changed by searching 8.5 voxels deep: {free}; with a penalty of 100: {penalised}"
+    );
+    assert!(free > 1000 && penalised * 20 < free, "{free}, {penalised}");
+
     for bad in [
         aibr_render::DepthRefinement {
             steps: 1,
@@ -292,6 +322,18 @@ fn depth_refinement_moves_surfaces_to_the_truth() -> TestResult {
         },
         aibr_render::DepthRefinement {
             radius: 17,
+            ..Default::default()
+        },
+        aibr_render::DepthRefinement {
+            penalty: -0.1,
+            ..Default::default()
+        },
+        aibr_render::DepthRefinement {
+            penalty: f64::NAN,
+            ..Default::default()
+        },
+        aibr_render::DepthRefinement {
+            free_voxels: f64::INFINITY,
             ..Default::default()
         },
     ] {
