@@ -303,15 +303,46 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert_success(&render(&[&view[..], &["--reach", "8"]].concat(), &deep)?);
     let moved = changed_on_surface(&image::open(&deep)?.to_rgb8());
     assert!(moved > 0, "a reach of 8 voxels changed no pixel");
+    // In more depths, with and without a penalty on those beyond 4 voxels: other surface
+    // pixels again, and the penalty changes some.
+    let mut searched = Vec::new();
+    for penalty in ["0", "0.3"] {
+        let out = dir.join(format!("penalty{penalty}.png"));
+        let deep_search = [
+            "--reach",
+            "8",
+            "--refine-steps",
+            "12",
+            "--reach-penalty",
+            penalty,
+        ];
+        assert_success(&render(&[&view[..], &deep_search].concat(), &out)?);
+        let image = image::open(&out)?.to_rgb8();
+        assert!(changed_on_surface(&image) > 0);
+        searched.push(image);
+    }
+    assert_ne!(searched[0], searched[1]);
     let refused_reach = dir.join("reach_refused.png");
-    for bad in [
-        &["--reach=-1"][..],
-        &["--reach", "65"],
-        &["--reach", "6", "--no-refine"],
+    for (bad, named) in [
+        (&["--reach=-1"][..], "--reach"),
+        (&["--reach", "65"], "--reach"),
+        (&["--reach", "6", "--no-refine"], "--reach"),
+        (&["--refine-steps", "1"], "--refine-steps"),
+        (&["--refine-steps", "65"], "--refine-steps"),
+        (&["--refine-steps", "12", "--no-refine"], "--refine-steps"),
+        (&["--reach-penalty=-0.1"], "--reach-penalty"),
+        (&["--reach-penalty", "NaN"], "--reach-penalty"),
+        (
+            &["--reach-penalty", "0.3", "--no-refine"],
+            "--reach-penalty",
+        ),
     ] {
         let out = render(&[&view[..], bad].concat(), &refused_reach)?;
         assert!(!out.status.success(), "{bad:?} was accepted");
-        assert!(String::from_utf8_lossy(&out.stderr).contains("--reach"));
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(named),
+            "{bad:?}"
+        );
     }
     assert!(!refused_reach.exists());
     // From the shell as reconstructed instead of closed and filled.
@@ -842,9 +873,20 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         );
     }
     // Rendered with a deeper refinement: the same views and models, other renders.
-    assert_eq!(summary["reach_voxels"].as_f64(), Some(4.0));
-    let deep = small_eval_json(&[&budget[..], &["--reach", "8"]].concat(), &work)?;
-    assert_eq!(deep["reach_voxels"].as_f64(), Some(8.0));
+    let search = |json: &serde_json::Value| {
+        ["reach_voxels", "refine_steps", "reach_penalty"].map(|k| json[k].as_f64())
+    };
+    assert_eq!(search(&summary), [Some(4.0), Some(7.0), Some(0.0)]);
+    let deep_search = [
+        "--reach",
+        "8",
+        "--refine-steps",
+        "12",
+        "--reach-penalty",
+        "0.3",
+    ];
+    let deep = small_eval_json(&[&budget[..], &deep_search].concat(), &work)?;
+    assert_eq!(search(&deep), [Some(8.0), Some(12.0), Some(0.3)]);
     let figures = checkpoints(&deep);
     assert_eq!(rec.len(), figures.len());
     assert!(
