@@ -146,6 +146,17 @@ fn killed_capture_resumes_to_the_same_views() -> TestResult {
     Ok(())
 }
 
+/// The depth refinement's penalised deep search (`docs/render.md`), as `render` and `eval`
+/// take it; its last value is the penalty.
+const DEEP_SEARCH: [&str; 6] = [
+    "--reach",
+    "8",
+    "--refine-steps",
+    "12",
+    "--reach-penalty",
+    "0.3",
+];
+
 #[test]
 fn reconstruct_and_render_a_session() -> TestResult {
     let dir = temp("render");
@@ -308,15 +319,8 @@ fn reconstruct_and_render_a_session() -> TestResult {
     let mut searched = Vec::new();
     for penalty in ["0", "0.3"] {
         let out = dir.join(format!("penalty{penalty}.png"));
-        let deep_search = [
-            "--reach",
-            "8",
-            "--refine-steps",
-            "12",
-            "--reach-penalty",
-            penalty,
-        ];
-        assert_success(&render(&[&view[..], &deep_search].concat(), &out)?);
+        let deep_search = [&view[..], &DEEP_SEARCH[..5], &[penalty]].concat();
+        assert_success(&render(&deep_search, &out)?);
         let image = image::open(&out)?.to_rgb8();
         assert!(changed_on_surface(&image) > 0);
         searched.push(image);
@@ -877,15 +881,7 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         ["reach_voxels", "refine_steps", "reach_penalty"].map(|k| json[k].as_f64())
     };
     assert_eq!(search(&summary), [Some(4.0), Some(7.0), Some(0.0)]);
-    let deep_search = [
-        "--reach",
-        "8",
-        "--refine-steps",
-        "12",
-        "--reach-penalty",
-        "0.3",
-    ];
-    let deep = small_eval_json(&[&budget[..], &deep_search].concat(), &work)?;
+    let deep = small_eval_json(&[&budget[..], &DEEP_SEARCH].concat(), &work)?;
     assert_eq!(search(&deep), [Some(8.0), Some(12.0), Some(0.3)]);
     let figures = checkpoints(&deep);
     assert_eq!(rec.len(), figures.len());
