@@ -222,8 +222,8 @@ struct RefineArgs {
     reach: Option<f64>,
     /// How many depths the refinement tries between half a voxel in front of the surface and
     /// the reach, evenly spaced (default 7, from 2 to 64).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(2..=64))]
-    refine_steps: Option<u8>,
+    #[arg(long, value_name = "N", value_parser = parse_refine_steps)]
+    refine_steps: Option<usize>,
     /// How much better a depth more than 4 voxels behind the surface must agree to be taken:
     /// its cost is multiplied by 1 + P x (voxels beyond 4) (default 0, at most 100). With
     /// --reach 8 --refine-steps 12 --reach-penalty 0.3, four catalogue scenes render 0.07-0.68
@@ -239,7 +239,7 @@ impl RefineArgs {
         let mut params = aibr::render::RenderParams::default();
         if let Some(r) = params.refine.as_mut() {
             r.back_voxels = self.reach.unwrap_or(r.back_voxels);
-            r.steps = self.refine_steps.map_or(r.steps, usize::from);
+            r.steps = self.refine_steps.unwrap_or(r.steps);
             r.penalty = self.reach_penalty.unwrap_or(r.penalty);
         }
         params
@@ -625,11 +625,23 @@ fn parse_reach(text: &str) -> std::result::Result<f64, String> {
     }
 }
 
-/// `--reach-penalty`: from 0 to 100.
+/// `--refine-steps`: the depths the renderer takes, from 2 to its most.
+fn parse_refine_steps(text: &str) -> std::result::Result<usize, String> {
+    let most = aibr::render::MAX_REFINE_STEPS;
+    match text.trim().parse::<usize>() {
+        Ok(n) if (2..=most).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "{text:?}: expected a number of depths from 2 to {most}"
+        )),
+    }
+}
+
+/// `--reach-penalty`: from 0 to the renderer's largest.
 fn parse_penalty(text: &str) -> std::result::Result<f64, String> {
+    let most = aibr::render::MAX_REFINE_PENALTY;
     match text.trim().parse::<f64>() {
-        Ok(v) if (0.0..=100.0).contains(&v) => Ok(v),
-        _ => Err(format!("{text:?}: expected a number from 0 to 100")),
+        Ok(v) if (0.0..=most).contains(&v) => Ok(v),
+        _ => Err(format!("{text:?}: expected a number from 0 to {most}")),
     }
 }
 

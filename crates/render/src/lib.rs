@@ -52,6 +52,6 @@ pub mod renderer;
 pub use error::{Error, Result};
 pub use exr_io::write_depth_exr;
 pub use renderer::{
-    Coverage, DepthRefinement, MAX_CANDIDATES, MAX_FILL_CLOSING, RenderParams, RenderedView,
-    Renderer, SourceView,
+    Coverage, DepthRefinement, MAX_CANDIDATES, MAX_FILL_CLOSING, MAX_REFINE_PENALTY,
+    MAX_REFINE_STEPS, RenderParams, RenderedView, Renderer, SourceView,
 };

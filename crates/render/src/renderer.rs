@@ -127,7 +127,7 @@ impl RenderParams {
             });
         }
         if let Some(r) = self.refine {
-            if !(2..=64).contains(&r.steps) {
+            if !(2..=MAX_REFINE_STEPS).contains(&r.steps) {
                 return Err(Error::InvalidParameter {
                     name: "refine.steps",
                     value: r.steps as f64,
@@ -151,7 +151,7 @@ impl RenderParams {
                     reason: "at most 16 pixels",
                 });
             }
-            if !(0.0..=100.0).contains(&r.penalty) {
+            if !(0.0..=MAX_REFINE_PENALTY).contains(&r.penalty) {
                 return Err(Error::InvalidParameter {
                     name: "refine.penalty",
                     value: r.penalty,
@@ -179,6 +179,12 @@ impl RenderParams {
 
 /// The largest closing [`RenderParams::fill`] takes.
 pub const MAX_FILL_CLOSING: usize = 8;
+
+/// The most depths [`DepthRefinement::steps`] takes (the fewest is 2).
+pub const MAX_REFINE_STEPS: usize = 64;
+
+/// The largest [`DepthRefinement::penalty`].
+pub const MAX_REFINE_PENALTY: f64 = 100.0;
 
 /// Most candidate sources per frame.
 pub const MAX_CANDIDATES: usize = 16;
