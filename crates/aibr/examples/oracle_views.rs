@@ -1,0 +1,262 @@
+//! What a planner that knew the truth would reach: the greedy oracle of arc splitting.
+//!
+//! `cargo run --release -p aibr --example oracle_views -- SCENE TURN [BUDGET] [COMPARE] [STEP]
+//! [SPLITS]`
+//!
+//! Starts, as `aibr eval` does, from 12 views spread uniformly over the pan range of the
+//! synthetic rig `sim:SCENE@TURN`, and adds views one at a time up to `BUDGET` (default 24).
+//! Each time it tries `SPLITS` pans evenly inside every arc between neighbouring views
+//! (default 1, the middle: the active planner's moves without its aims; 3 also tries the
+//! quarters, where the planner's aims may move a split) and keeps the one whose view set
+//! renders best against
+//! the ground truth: the mean masked PSNR of the novel views every `STEP` degrees (default 1)
+//! of the range, not within half a degree of a captured view, rendered from the views'
+//! 128^3 voxel coloring model with the default renderer. These are `aibr eval`'s frames (the
+//! same sensor noise, seeded by the pan angle), model, renderer and measure, so the figures
+//! are comparable with its own. It then measures uniform capture with `BUDGET` and with
+//! `COMPARE` views (default 48) the same way.
+//!
+//! The consistency estimate of active capture cannot do better than this oracle at choosing
+//! among those moves one at a time, so when the oracle with `BUDGET` views renders worse
+//! than uniform capture with `COMPARE`, no planner of that kind reaches issue 7's goal at
+//! this placement (`docs/results.md`, "Session 37"). It reports each step's choice and its
+//! figures on the side from which `mirror`'s panel is seen (the object's pans 20 to 160
+//! degrees) and off it. Each step renders a novel view set per arc: about 20 minutes for
+//! `mirror` from 12 to 24 views on a 2-core machine at `STEP` 2.
+
+use std::collections::HashMap;
+
+use aibr::camera::{Aabb, Angle, Camera};
+use aibr::render::{RenderParams, Renderer, SourceView, metrics};
+use aibr::voxel::{ColoringParams, View, VoxelGrid, voxel_coloring};
+use aibr::{EvalRig, FrameSource, SimRig, Turntable, uniform_pans};
+use image::{GrayImage, RgbImage};
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+/// Views `aibr eval` starts from.
+const INITIAL: usize = 12;
+/// The object's pans from which `mirror`'s panel is seen, degrees.
+const PANEL_SIDE: (f64, f64) = (20.0, 160.0);
+
+fn number(what: &str, text: &str) -> Result<f64> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| format!("{what}: {text:?} is not a number").into())
+}
+
+fn count(what: &str, text: &str) -> Result<usize> {
+    text.trim()
+        .parse::<usize>()
+        .map_err(|_| format!("{what}: {text:?} is not a count of views").into())
+}
+
+/// A view captured once, with its camera.
+struct Shot {
+    camera: Camera,
+    image: RgbImage,
+    mask: GrayImage,
+}
+
+/// How a set of views renders.
+#[derive(Clone, Copy)]
+struct Figures {
+    /// Mean masked PSNR of every novel view, dB.
+    mean: f64,
+    /// The same on the panel's side, and how many novel views lie there.
+    side: (f64, usize),
+    /// The same off it.
+    rest: (f64, usize),
+}
+
+/// The rig, with every frame and ground-truth view it was asked for kept.
+struct Oracle {
+    rig: SimRig,
+    volume: Aabb,
+    turn: f64,
+    step: Angle,
+    shots: HashMap<u64, Shot>,
+    truths: HashMap<u64, (RgbImage, GrayImage)>,
+}
+
+impl Oracle {
+    /// Moves to `pan` and captures there, once per pan; returns the pan reached (a whole
+    /// number of the turntable's steps).
+    fn shoot(&mut self, pan: Angle) -> Result<Angle> {
+        let reached = self.rig.move_to(pan)?;
+        let key = reached.radians().to_bits();
+        if !self.shots.contains_key(&key) {
+            let frame = self.rig.capture()?;
+            let mask = frame.mask.ok_or("the synthetic rig gave no object mask")?;
+            let camera = self.rig.calibration()?.camera_at(reached);
+            self.shots.insert(
+                key,
+                Shot {
+                    camera,
+                    image: frame.image,
+                    mask,
+                },
+            );
+        }
+        Ok(reached)
+    }
+
+    /// Reconstructs `pans` (already shot) and measures their novel views.
+    fn measure(&mut self, pans: &[Angle]) -> Result<Figures> {
+        let shots = pans
+            .iter()
+            .map(|p| {
+                self.shots
+                    .get(&p.radians().to_bits())
+                    .ok_or_else(|| format!("pan {:.3} deg was not shot", p.degrees()))
+            })
+            .collect::<std::result::Result<Vec<&Shot>, _>>()?;
+        let views: Vec<View<'_>> = shots
+            .iter()
+            .map(|s| View {
+                camera: &s.camera,
+                image: &s.image,
+                mask: Some(&s.mask),
+            })
+            .collect();
+        let grid = VoxelGrid::with_resolution(self.volume, 128)?;
+        let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
+        let sources = shots
+            .iter()
+            .map(|s| SourceView {
+                camera: s.camera.clone(),
+                image: s.image.clone(),
+            })
+            .collect();
+        let renderer = Renderer::new(&model, sources, RenderParams::default())?;
+        let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
+        for (pan, camera) in self.rig.novel_views(pans, self.step)? {
+            let key = pan.radians().to_bits();
+            if !self.truths.contains_key(&key) {
+                let truth = self.rig.truth(pan, &camera)?;
+                self.truths.insert(key, truth);
+            }
+            let (truth, mask) = &self.truths[&key];
+            let view = renderer.render(&camera)?;
+            let psnr = metrics::psnr(truth, &view.rgb, Some(mask))?;
+            all.push(psnr);
+            if on_panel_side(pan.degrees() + self.turn) {
+                side.push(psnr);
+            } else {
+                rest.push(psnr);
+            }
+        }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+        Ok(Figures {
+            mean: mean(&all),
+            side: (mean(&side), side.len()),
+            rest: (mean(&rest), rest.len()),
+        })
+    }
+}
+
+/// True when the object's own pan `object_deg` lies on [`PANEL_SIDE`].
+fn on_panel_side(object_deg: f64) -> bool {
+    let a = (object_deg + 180.0).rem_euclid(360.0) - 180.0;
+    (PANEL_SIDE.0..=PANEL_SIDE.1).contains(&a)
+}
+
+fn describe(f: &Figures) -> String {
+    format!(
+        "{:.2} dB (panel side {:.2} over {} angles, the rest {:.2} over {})",
+        f.mean, f.side.0, f.side.1, f.rest.0, f.rest.1
+    )
+}
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().collect();
+    let [_, scene, turn, rest @ ..] = args.as_slice() else {
+        return Err("usage: oracle_views SCENE TURN [BUDGET] [COMPARE] [STEP] [SPLITS]".into());
+    };
+    let turn = number("TURN", turn)?;
+    let budget = rest.first().map_or(Ok(24), |s| count("BUDGET", s))?;
+    let compare = rest.get(1).map_or(Ok(48), |s| count("COMPARE", s))?;
+    let step = rest.get(2).map_or(Ok(1.0), |s| number("STEP", s))?;
+    let splits = rest.get(3).map_or(Ok(1), |s| count("SPLITS", s))?;
+    if budget <= INITIAL || compare < 3 || splits == 0 {
+        return Err(format!(
+            "BUDGET {budget} must exceed the {INITIAL} initial views, COMPARE {compare} be 3 or \
+             more and SPLITS {splits} 1 or more"
+        )
+        .into());
+    }
+    if !(step > 0.0) {
+        return Err(format!("STEP {step}: must be positive").into());
+    }
+    let rig = SimRig::from_spec(&format!("sim:{scene}@{turn}"))?;
+    let mut oracle = Oracle {
+        volume: rig.volume(),
+        rig,
+        turn,
+        step: Angle::from_degrees(step),
+        shots: HashMap::new(),
+        truths: HashMap::new(),
+    };
+    let (range, pan_step) = (oracle.rig.range(), oracle.rig.step());
+    let mut pans = Vec::new();
+    for p in uniform_pans(&range, pan_step, INITIAL) {
+        pans.push(oracle.shoot(p)?);
+    }
+    let start = oracle.measure(&pans)?;
+    println!(
+        "{scene}@{turn}, {INITIAL} uniform views: {}",
+        describe(&start)
+    );
+    while pans.len() < budget {
+        pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
+        let mut best: Option<(Angle, Figures)> = None;
+        for w in pans.windows(2) {
+            let (a, b) = (w[0].radians(), w[1].radians());
+            for k in 1..=splits {
+                let t = k as f64 / (splits + 1) as f64;
+                let pan = oracle.shoot(Angle::from_radians(a + t * (b - a)))?;
+                if pan == w[0] || pan == w[1] || best.is_some_and(|(p, _)| p == pan) {
+                    continue; // an arc too short to split there, or a pan already tried
+                }
+                let mut with = pans.clone();
+                with.push(pan);
+                let f = oracle.measure(&with)?;
+                if best.is_none_or(|(_, b)| f.mean > b.mean) {
+                    best = Some((pan, f));
+                }
+            }
+        }
+        let Some((pan, f)) = best else {
+            println!("no arc left to split");
+            break;
+        };
+        pans.push(pan);
+        let side = if on_panel_side(pan.degrees() + turn) {
+            "panel side"
+        } else {
+            "off it"
+        };
+        println!(
+            "{} views: + {:.2} deg ({side}): {}",
+            pans.len(),
+            pan.degrees(),
+            describe(&f)
+        );
+    }
+    pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
+    let list: Vec<String> = pans.iter().map(|p| format!("{:.2}", p.degrees())).collect();
+    println!("oracle's {} views: {}", pans.len(), list.join(","));
+    for n in [pans.len(), compare] {
+        let mut uniform = Vec::new();
+        for p in uniform_pans(&range, pan_step, n) {
+            uniform.push(oracle.shoot(p)?);
+        }
+        println!(
+            "uniform {n} views: {}",
+            describe(&oracle.measure(&uniform)?)
+        );
+    }
+    Ok(())
+}
