@@ -8,21 +8,23 @@
 //! Each time it tries `SPLITS` pans evenly inside every arc between neighbouring views
 //! (default 1, the middle: the active planner's moves without its aims; 3 also tries the
 //! quarters, where the planner's aims may move a split) and keeps the one whose view set
-//! renders best against
-//! the ground truth: the mean masked PSNR of the novel views every `STEP` degrees (default 1)
-//! of the range, not within half a degree of a captured view, rendered from the views'
-//! 128^3 voxel coloring model with the default renderer. These are `aibr eval`'s frames (the
-//! same sensor noise, seeded by the pan angle), model, renderer and measure, so the figures
-//! are comparable with its own. It then measures uniform capture with `BUDGET` and with
-//! `COMPARE` views (default 48) the same way.
+//! renders best against the ground truth: the mean masked PSNR of the novel views every
+//! `STEP` degrees (default 1) of the range, not within half a degree of a captured view,
+//! rendered from the views' 128^3 voxel coloring model with the default renderer. These are
+//! `aibr eval`'s frames (the same sensor noise, seeded by the pan angle), model, renderer and
+//! measure, so the figures are comparable with its own. It then measures uniform capture
+//! with `BUDGET` and with `COMPARE` views (default 48) the same way.
 //!
-//! The consistency estimate of active capture cannot do better than this oracle at choosing
-//! among those moves one at a time, so when the oracle with `BUDGET` views renders worse
-//! than uniform capture with `COMPARE`, no planner of that kind reaches issue 7's goal at
-//! this placement (`docs/results.md`, "Session 37"). It reports each step's choice and its
-//! figures on the side from which `mirror`'s panel is seen (the object's pans 20 to 160
-//! degrees) and off it. Each step renders a novel view set per arc: about 20 minutes for
-//! `mirror` from 12 to 24 views on a 2-core machine at `STEP` 2.
+//! No estimate picks a better next view among the same moves than this oracle does at each
+//! step (a whole sequence chosen otherwise could still end a little better: greedy choice is
+//! not optimal). So where the oracle with `BUDGET` views renders worse than uniform capture
+//! with `COMPARE`, issue 7's goal is most likely out of reach of planners of that kind there,
+//! and where it renders better, the goal is reachable and the estimate is what falls short
+//! (`docs/results.md`, "Session 37"). It reports each step's choice and its figures on the
+//! side from which `mirror`'s panel is seen (the object's pans 20 to 160 degrees) and off
+//! it. Each step renders a novel view set per candidate: on a 2-core
+//! machine, `mirror` from 12 to 24 views took 41 minutes at `STEP` 1 with `SPLITS` 1, and 37
+//! minutes at `STEP` 3 with `SPLITS` 3.
 
 use std::collections::HashMap;
 
