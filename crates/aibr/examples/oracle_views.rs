@@ -182,12 +182,14 @@ fn main() -> Result<()> {
     let compare = rest.get(1).map_or(Ok(48), |s| count("COMPARE", s))?;
     let step = rest.get(2).map_or(Ok(1.0), |s| number("STEP", s))?;
     let splits = rest.get(3).map_or(Ok(1), |s| count("SPLITS", s))?;
-    if budget <= INITIAL || compare < 3 || splits == 0 {
-        return Err(format!(
-            "BUDGET {budget} must exceed the {INITIAL} initial views, COMPARE {compare} be 3 or \
-             more and SPLITS {splits} 1 or more"
-        )
-        .into());
+    if budget <= INITIAL {
+        return Err(format!("BUDGET {budget}: must exceed the {INITIAL} initial views").into());
+    }
+    if compare < 3 {
+        return Err(format!("COMPARE {compare}: must be 3 views or more").into());
+    }
+    if splits == 0 {
+        return Err("SPLITS 0: at least one pan per arc must be tried".into());
     }
     if !(step > 0.0) {
         return Err(format!("STEP {step}: must be positive").into());
