@@ -28,18 +28,23 @@
 
 use std::collections::HashMap;
 
-use aibr::camera::{Aabb, Angle, Camera};
+use aibr::camera::{Aabb, Angle};
 use aibr::render::{RenderParams, Renderer, SourceView, metrics};
 use aibr::voxel::{ColoringParams, View, VoxelGrid, voxel_coloring};
-use aibr::{EvalRig, FrameSource, SimRig, Turntable, uniform_pans};
+use aibr::{Calibration, EvalRig, FrameSource, ObjectArc, SimRig, Turntable, uniform_pans};
 use image::{GrayImage, RgbImage};
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// Views `aibr eval` starts from.
 const INITIAL: usize = 12;
-/// The object's pans from which `mirror`'s panel is seen, degrees.
-const PANEL_SIDE: (f64, f64) = (20.0, 160.0);
+/// The object's pans from which `mirror`'s panel is seen (`aibr eval --arc 20:160`).
+fn panel_side() -> ObjectArc {
+    ObjectArc {
+        from: Angle::from_degrees(20.0),
+        to: Angle::from_degrees(160.0),
+    }
+}
 
 fn number(what: &str, text: &str) -> Result<f64> {
     text.trim()
@@ -55,10 +60,9 @@ fn count(what: &str, text: &str) -> Result<usize> {
         .map_err(|_| format!("{what}: {text:?} is not a count of views").into())
 }
 
-/// A view captured once, with its camera.
+/// A view captured once: the renderer's source (its camera and image) and its object mask.
 struct Shot {
-    camera: Camera,
-    image: RgbImage,
+    source: SourceView,
     mask: GrayImage,
 }
 
@@ -76,8 +80,8 @@ struct Figures {
 /// The rig, with every frame and ground-truth view it was asked for kept.
 struct Oracle {
     rig: SimRig,
+    calibration: Calibration,
     volume: Aabb,
-    turn: f64,
     step: Angle,
     shots: HashMap<u64, Shot>,
     truths: HashMap<u64, (RgbImage, GrayImage)>,
@@ -92,15 +96,11 @@ impl Oracle {
         if !self.shots.contains_key(&key) {
             let frame = self.rig.capture()?;
             let mask = frame.mask.ok_or("the synthetic rig gave no object mask")?;
-            let camera = self.rig.calibration()?.camera_at(reached);
-            self.shots.insert(
-                key,
-                Shot {
-                    camera,
-                    image: frame.image,
-                    mask,
-                },
-            );
+            let source = SourceView {
+                camera: self.calibration.camera_at(reached),
+                image: frame.image,
+            };
+            self.shots.insert(key, Shot { source, mask });
         }
         Ok(reached)
     }
@@ -118,21 +118,16 @@ impl Oracle {
         let views: Vec<View<'_>> = shots
             .iter()
             .map(|s| View {
-                camera: &s.camera,
-                image: &s.image,
+                camera: &s.source.camera,
+                image: &s.source.image,
                 mask: Some(&s.mask),
             })
             .collect();
         let grid = VoxelGrid::with_resolution(self.volume, 128)?;
         let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
-        let sources = shots
-            .iter()
-            .map(|s| SourceView {
-                camera: s.camera.clone(),
-                image: s.image.clone(),
-            })
-            .collect();
+        let sources = shots.iter().map(|s| s.source.clone()).collect();
         let renderer = Renderer::new(&model, sources, RenderParams::default())?;
+        let (arc, turn) = (panel_side(), self.rig.turn());
         let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
         for (pan, camera) in self.rig.novel_views(pans, self.step)? {
             let key = pan.radians().to_bits();
@@ -144,7 +139,7 @@ impl Oracle {
             let view = renderer.render(&camera)?;
             let psnr = metrics::psnr(truth, &view.rgb, Some(mask))?;
             all.push(psnr);
-            if on_panel_side(pan.degrees() + self.turn) {
+            if arc.contains(pan + turn) {
                 side.push(psnr);
             } else {
                 rest.push(psnr);
@@ -157,12 +152,6 @@ impl Oracle {
             rest: (mean(&rest), rest.len()),
         })
     }
-}
-
-/// True when the object's own pan `object_deg` lies on [`PANEL_SIDE`].
-fn on_panel_side(object_deg: f64) -> bool {
-    let a = (object_deg + 180.0).rem_euclid(360.0) - 180.0;
-    (PANEL_SIDE.0..=PANEL_SIDE.1).contains(&a)
 }
 
 fn describe(f: &Figures) -> String {
@@ -196,9 +185,9 @@ fn main() -> Result<()> {
     }
     let rig = SimRig::from_spec(&format!("sim:{scene}@{turn}"))?;
     let mut oracle = Oracle {
+        calibration: rig.calibration()?,
         volume: rig.volume(),
         rig,
-        turn,
         step: Angle::from_degrees(step),
         shots: HashMap::new(),
         truths: HashMap::new(),
@@ -237,7 +226,7 @@ fn main() -> Result<()> {
             break;
         };
         pans.push(pan);
-        let side = if on_panel_side(pan.degrees() + turn) {
+        let side = if panel_side().contains(pan + oracle.rig.turn()) {
             "panel side"
         } else {
             "off it"
