@@ -74,6 +74,9 @@ pub struct CaptureParams {
     /// next view, as a share of the arc's half-width (default 0.5; 0 splits every arc at its
     /// middle; [`PlanParams::aim_reach`]).
     pub aim_reach: f64,
+    /// Serve every flat face of the model with a view in its plane before splitting arcs by
+    /// rank alone (default false; [`PlanParams::faces_first`]).
+    pub faces_first: bool,
 }
 
 impl Default for CaptureParams {
@@ -87,6 +90,7 @@ impl Default for CaptureParams {
             consistent_below: 0.0,
             width_power: PlanParams::default().width_power,
             aim_reach: PlanParams::default().aim_reach,
+            faces_first: PlanParams::default().faces_first,
         }
     }
 }
@@ -122,6 +126,7 @@ impl CaptureParams {
             consistent_below: self.consistent_below,
             width_power: self.width_power,
             aim_reach: self.aim_reach,
+            faces_first: self.faces_first,
         }
     }
 }
@@ -402,7 +407,9 @@ pub fn renderer_with<'m>(
 /// 1. The initial views, uniform over the range (for the uniform strategy, all `max`).
 /// 2. Active: reconstruct every `refine_every` captures; score each arc between neighbouring
 ///    views; split the worst at its middle angle, or at a pan near it that sees a flat face
-///    of the model edge-on ([`CaptureParams::aim_reach`]); capture there. A rig that reaches
+///    of the model edge-on ([`CaptureParams::aim_reach`]); capture there. With
+///    [`CaptureParams::faces_first`], a face no view sees edge-on yet is served first, in the
+///    best-ranked arc that holds one of its edge-on pans. A rig that reaches
 ///    only some pans ([`Turntable::reachable`], a replayed ring) is asked for the one inside
 ///    that arc nearest that split, and an arc holding none is passed over. Stop at the budget,
 ///    or when every arc is consistent, too short to split or holds nothing reachable.
@@ -438,9 +445,9 @@ pub fn capture<R: Turntable + FrameSource>(
         let volume = session.volume()?;
         // The calibration's pose model, when the planner aims at the model's flat faces.
         let motion = session.calibration()?.motion;
-        let aims_from = (params.aim_reach > 0.0).then_some(&motion);
+        let aims_from = (params.aim_reach > 0.0 || params.faces_first).then_some(&motion);
         let mut scores: Vec<PairScore> = Vec::new();
-        let mut aims: Vec<Angle> = Vec::new();
+        let mut aims: Vec<Vec<Angle>> = Vec::new();
         let mut since_refine = 0usize;
         // On resume, the views after the initial ones were planned from reconstructions made
         // every `refine_every` captures: restart the count where an uninterrupted run was.
@@ -612,7 +619,7 @@ fn score_views(
     aims_from: Option<&CircularMotion>,
     timings: &mut StageTimings,
     algorithm: &mut &'static str,
-) -> Result<(Vec<PairScore>, Vec<Angle>)> {
+) -> Result<(Vec<PairScore>, Vec<Vec<Angle>>)> {
     let masks = masks_of(views)?;
     let t = Instant::now();
     let (rec, alg) = reconstruct_views(
@@ -645,10 +652,11 @@ fn face_aims(
     model: &aibr_voxel::VoxelModel,
     motion: &CircularMotion,
     range: &PanRange,
-) -> Result<Vec<Angle>> {
+) -> Result<Vec<Vec<Angle>>> {
     let faces = planar_faces(model, &FaceParams::default())?;
     Ok(faces
         .iter()
-        .flat_map(|f| edge_on_pans(f, motion, range))
+        .map(|f| edge_on_pans(f, motion, range))
+        .filter(|pans| !pans.is_empty())
         .collect())
 }

@@ -81,6 +81,11 @@ pub struct ParametersRecord {
     /// written before it was recorded, which split every arc at its middle.
     #[serde(default)]
     pub aim_reach: f64,
+    /// Whether the planner served every flat face of the model with a view in its plane
+    /// before splitting arcs by rank alone; false in files written before it was recorded,
+    /// which did not.
+    #[serde(default)]
+    pub faces_first: bool,
 }
 
 impl ParametersRecord {
@@ -95,6 +100,7 @@ impl ParametersRecord {
             consistent_below: params.consistent_below,
             width_power: params.width_power,
             aim_reach: params.aim_reach,
+            faces_first: params.faces_first,
         }
     }
 
@@ -412,6 +418,11 @@ impl Session {
                 "aim_reach",
                 have.aim_reach.to_string(),
                 given.aim_reach.to_string(),
+            ),
+            (
+                "faces_first",
+                have.faces_first.to_string(),
+                given.faces_first.to_string(),
             ),
         ];
         match fields

@@ -280,6 +280,16 @@ struct PlanArgs {
         allow_hyphen_values = true
     )]
     aim_reach: f64,
+    /// The active planner first serves every flat face of the model: while a face has no view
+    /// within a degree of a pan that sees it edge-on, it splits the best-ranked arc holding
+    /// such a pan there, and only then splits arcs by rank alone (true or false).
+    #[arg(
+        long,
+        default_value_t = CaptureParams::default().faces_first,
+        value_name = "BOOL",
+        action = clap::ArgAction::Set
+    )]
+    faces_first: bool,
 }
 
 #[derive(clap::Args)]
@@ -1038,6 +1048,7 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
         consistent_below: a.consistent_below,
         width_power: a.plan.width_power,
         aim_reach: a.plan.aim_reach,
+        faces_first: a.plan.faces_first,
     };
     let mut session = if a.resume {
         let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
@@ -1208,6 +1219,7 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
             grid: a.capture_grid,
             width_power: a.plan.width_power,
             aim_reach: a.plan.aim_reach,
+            faces_first: a.plan.faces_first,
             ..CaptureParams::default()
         },
         checkpoints,

@@ -468,6 +468,20 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
         "{err}"
     );
     assert_success(&resume(&["--width-power", "1", "--aim-reach", "0"])?);
+    // And serving the faces first, which this session was not planned with.
+    let out = resume(&[
+        "--width-power",
+        "1",
+        "--aim-reach",
+        "0",
+        "--faces-first",
+        "true",
+    ])?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("faces_first false, not true"),
+        "{err}"
+    );
 
     // A corrupt view: checksum mismatch, named.
     let view = dir.join("views/0002.png");
@@ -691,6 +705,7 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
         ("--width-power", "NaN", "width_power"),
         ("--aim-reach", "-0.5", "aim_reach"),
         ("--aim-reach", "1.5", "aim_reach"),
+        ("--faces-first", "maybe", "faces-first"),
         ("--rig", "sim:mirror@x", "scene turn"),
         ("--rig", "sim:mirror@190", "scene turn"),
     ] {

@@ -15,7 +15,9 @@
 //!   replaces the middle. The capture loop aims at [`edge_on_pans`], the pans from which a
 //!   flat face of the model (`aibr_voxel::planar_faces`) is seen edge-on: a face seen only
 //!   at a slant comes out of voxel coloring a few voxels too fat, and a view in its plane
-//!   cuts that away. [`plan_next_among`] plans for a turntable that reaches only some pans
+//!   cuts that away; with [`PlanParams::faces_first`] the planner first serves every face
+//!   with a view in its plane, in the best-ranked arc holding one of its edge-on pans.
+//!   [`plan_next_among`] plans for a turntable that reaches only some pans
 //!   (a replayed ring's recorded views): the reachable pan inside the chosen arc nearest
 //!   where the split would be, arcs holding none passed over.
 //! - [`foreground`]: masks from a dark background, or from the median backdrop of the views.

@@ -63,6 +63,13 @@ pub struct PlanParams {
     /// Aims are the pans that see a flat face of the model edge-on ([`edge_on_pans`]): a
     /// view there cuts away the wedge of visual hull a face seen only at a slant keeps.
     pub aim_reach: f64,
+    /// Serve every face first (default false): while a flat face of the model has no view
+    /// within [`AIM_DONE_DEG`] of any of its edge-on pans, the best-ranked arc that holds one
+    /// of those pans is split there, whatever `aim_reach`; only then are arcs split by rank
+    /// alone ([`plan_next_aimed`]). On `mirror` it puts a view in every face's plane by 24
+    /// views and renders better there, at a small cost on `lambertian`
+    /// (`docs/results.md`, "Session 38").
+    pub faces_first: bool,
 }
 
 impl Default for PlanParams {
@@ -71,6 +78,7 @@ impl Default for PlanParams {
             consistent_below: 0.0,
             width_power: 3.0,
             aim_reach: 0.5,
+            faces_first: false,
         }
     }
 }
@@ -164,15 +172,21 @@ pub fn plan_next(
 /// range and at least one step from every existing view is proposed. `Ok(None)` when every
 /// arc is consistent or too short to split; an error when `params` are out of their domain.
 ///
-/// `aims` are pans worth a view of their own (the edge-on pans of the model's flat faces,
-/// [`edge_on_pans`]); those with a view within [`AIM_DONE_DEG`] are done. When one that is
-/// not lies inside the chosen arc within `params.aim_reach` of its half-width from the
-/// middle, the one nearest the middle is proposed instead of the middle: the arc to split is
-/// the estimate's choice, where in it the aims' (`docs/consistency.md`).
+/// `aims` are pans worth a view of their own, one list per flat face of the model: the pans
+/// that see it edge-on ([`edge_on_pans`]). An aim with a view within [`AIM_DONE_DEG`] is done.
+/// When one that is not lies inside the chosen arc within `params.aim_reach` of its
+/// half-width from the middle, the one nearest the middle is proposed instead of the middle:
+/// the arc to split is the estimate's choice, where in it the aims' (`docs/consistency.md`).
+///
+/// With `params.faces_first`, a face is done when a view lies within [`AIM_DONE_DEG`] of any
+/// of its pans (either sees the same plane), and while one is not, the best-ranked arc that
+/// holds one of its pans is split there (the one nearest the arc's middle when several are),
+/// wherever in the arc it lies; only when no arc holds a pan of an open face are arcs split
+/// as above.
 pub fn plan_next_aimed(
     pans: &[Angle],
     scores: &[PairScore],
-    aims: &[Angle],
+    aims: &[Vec<Angle>],
     limits: &TurntableLimits,
     params: &PlanParams,
 ) -> Result<Option<Proposal>> {
@@ -212,20 +226,25 @@ pub fn plan_next_aimed(
 pub fn plan_next_among(
     pans: &[Angle],
     scores: &[PairScore],
-    aims: &[Angle],
+    aims: &[Vec<Angle>],
     reachable: Option<&[Angle]>,
     limits: &TurntableLimits,
     params: &PlanParams,
 ) -> Result<Option<Proposal>> {
     params.validate()?;
     let done = AIM_DONE_DEG.to_radians();
+    let open = |a: &Angle| {
+        pans.iter()
+            .all(|p| a.wrapped_difference(*p).radians().abs() > done)
+    };
+    // Serving faces, a face is done when a view lies within `done` of any of its edge-on pans;
+    // otherwise each pan is an aim of its own (as measured since session 25).
     let open_aims: Vec<Angle> = aims
         .iter()
+        .filter(|face| !params.faces_first || face.iter().all(open))
+        .flatten()
         .copied()
-        .filter(|a| {
-            pans.iter()
-                .all(|p| a.wrapped_difference(*p).radians().abs() > done)
-        })
+        .filter(open)
         .collect();
     // The arc from a to b, in the pair's own order (b after a, a turn later across the wrap).
     let gap = |s: &PairScore| -> Option<f64> {
@@ -254,45 +273,67 @@ pub fn plan_next_among(
             .filter(|p| far_enough(*p))
             .collect()
     });
-    for (_, s) in order {
-        let (Some(pa), Some(gap)) = (pans.get(s.a), gap(s)) else {
-            continue;
-        };
+    // Where in the arc of `s` to split. With `serve_faces`, only at an open aim anywhere inside
+    // it, at a pan within `done` of the aim (`None` when there is none); otherwise at the open
+    // aim nearest the middle within reach, else the middle.
+    let split = |s: &PairScore, serve_faces: bool| -> Option<Angle> {
+        let (pa, gap) = (pans.get(s.a)?, gap(s)?);
+        let middle = gap / 2.0;
         // Offsets from the arc's start.
         let offset = |pan: &Angle| (pan.radians() - pa.radians()).rem_euclid(std::f64::consts::TAU);
-        // The aim nearest the middle within reach.
-        let reach = params.aim_reach * gap / 2.0;
-        let aim = open_aims
+        let reach = if serve_faces {
+            middle
+        } else {
+            params.aim_reach * middle
+        };
+        // The aims within reach, nearest the middle first.
+        let mut aims: Vec<f64> = open_aims
             .iter()
             .map(offset)
-            .filter(|o| *o > 0.0 && *o < gap && (o - gap / 2.0).abs() <= reach)
-            .min_by(|x, y| (x - gap / 2.0).abs().total_cmp(&(y - gap / 2.0).abs()));
-        let pan = match &candidates {
-            None => {
-                let at = |o: f64| {
+            .filter(|o| *o > 0.0 && *o < gap && (o - middle).abs() <= reach)
+            .collect();
+        aims.sort_by(|x, y| (x - middle).abs().total_cmp(&(y - middle).abs()));
+        // The pan for a split at offset `o`, and how far from `o` it may lie.
+        let at = |o: f64, within: f64| -> Option<Angle> {
+            match &candidates {
+                None => {
                     let pan = limits.quantise(Angle::from_radians(pa.radians() + o));
                     limits.range.normalize(pan).filter(|p| far_enough(*p))
-                };
-                aim.and_then(at).or_else(|| at(gap / 2.0))
-            }
-            Some(candidates) => {
-                let target = aim.unwrap_or(gap / 2.0);
-                candidates
+                }
+                Some(candidates) => candidates
                     .iter()
                     .map(|p| (offset(p), *p))
-                    .filter(|(o, _)| *o > 0.0 && *o < gap)
-                    .min_by(|x, y| (x.0 - target).abs().total_cmp(&(y.0 - target).abs()))
-                    .map(|(_, p)| p)
+                    .filter(|(c, _)| *c > 0.0 && *c < gap && (c - o).abs() <= within)
+                    .min_by(|x, y| (x.0 - o).abs().total_cmp(&(y.0 - o).abs()))
+                    .map(|(_, p)| p),
             }
         };
-        let Some(pan) = pan else {
-            continue;
-        };
-        return Ok(Some(Proposal {
-            pan,
-            pair: (s.a, s.b),
-            score: s.score,
-        }));
+        if serve_faces {
+            // A face is served only by a pan that serves it.
+            aims.iter().find_map(|&o| at(o, done))
+        } else {
+            // Anywhere in the arc, nearest the aim, else nearest the middle.
+            let anywhere = |o: f64| at(o, f64::INFINITY);
+            aims.first()
+                .and_then(|&o| anywhere(o))
+                .or_else(|| anywhere(middle))
+        }
+    };
+    let passes: &[bool] = if params.faces_first {
+        &[true, false]
+    } else {
+        &[false]
+    };
+    for &whole_arc in passes {
+        for (_, s) in &order {
+            if let Some(pan) = split(s, whole_arc) {
+                return Ok(Some(Proposal {
+                    pan,
+                    pair: (s.a, s.b),
+                    score: s.score,
+                }));
+            }
+        }
     }
     Ok(None)
 }

@@ -346,6 +346,14 @@ fn edge_on_pans_put_the_camera_centre_in_the_face_plane() -> TestResult {
     Ok(())
 }
 
+/// Faces of one edge-on pan each, at `degrees`.
+fn faces(degrees: &[f64]) -> Vec<Vec<Angle>> {
+    degrees
+        .iter()
+        .map(|d| vec![Angle::from_degrees(*d)])
+        .collect()
+}
+
 #[test]
 fn an_aim_near_the_middle_of_the_chosen_arc_draws_the_view() -> TestResult {
     let limits = ptu_range_in_degrees()?;
@@ -354,7 +362,7 @@ fn an_aim_near_the_middle_of_the_chosen_arc_draws_the_view() -> TestResult {
     let scores = [pair(0, 1, 100.0), pair(1, 2, 100.0)];
     let plan = PlanParams::default();
     let with = |aims: &[f64]| -> Result<f64, Box<dyn std::error::Error>> {
-        let aims: Vec<Angle> = aims.iter().map(|d| Angle::from_degrees(*d)).collect();
+        let aims = faces(aims);
         let p = plan_next_aimed(&pans, &scores, &aims, &limits, &plan)?.ok_or("no proposal")?;
         assert_eq!(p.pair, (1, 2));
         Ok(p.pan.degrees())
@@ -369,7 +377,7 @@ fn an_aim_near_the_middle_of_the_chosen_arc_draws_the_view() -> TestResult {
     // An aim with a view within AIM_DONE_DEG of it is done (a view the scores do not know
     // of, which leaves the arcs as they were).
     let seen = [0.0, 20.0, 60.0, 46.0 + 0.6 * AIM_DONE_DEG].map(Angle::from_degrees);
-    let aims = [Angle::from_degrees(46.0)];
+    let aims = faces(&[46.0]);
     let p = plan_next_aimed(&seen, &scores, &aims, &limits, &plan)?.ok_or("no proposal")?;
     assert!((p.pan.degrees() - 40.0).abs() < 1e-9, "{}", p.pan);
     // A reach of 0 never moves the view; a reach outside 0..=1 is refused.
@@ -377,7 +385,7 @@ fn an_aim_near_the_middle_of_the_chosen_arc_draws_the_view() -> TestResult {
         aim_reach: 0.0,
         ..plan
     };
-    let aims = [Angle::from_degrees(46.0)];
+    let aims = faces(&[46.0]);
     let p = plan_next_aimed(&pans, &scores, &aims, &limits, &never)?.ok_or("no proposal")?;
     assert!((p.pan.degrees() - 40.0).abs() < 1e-9);
     for bad in [-0.1, 1.5, f64::NAN] {
@@ -390,6 +398,71 @@ fn an_aim_near_the_middle_of_the_chosen_arc_draws_the_view() -> TestResult {
             .ok_or("accepted a bad reach")?;
         assert!(err.to_string().contains("aim_reach"), "{err}");
     }
+    Ok(())
+}
+
+#[test]
+fn serving_faces_first_splits_the_best_arc_holding_an_open_face() -> TestResult {
+    let limits = ptu_range_in_degrees()?;
+    let pans = [-90.0, 0.0, 20.0, 60.0].map(Angle::from_degrees);
+    // By rank: -90..0 (widest), 20..60, then 0..20.
+    let scores = [pair(0, 1, 100.0), pair(1, 2, 100.0), pair(2, 3, 100.0)];
+    let first = PlanParams {
+        faces_first: true,
+        ..PlanParams::default()
+    };
+    let plan = |pans: &[Angle], aims: &[Vec<Angle>], params: &PlanParams| -> Split {
+        plan_next_aimed(pans, &scores, aims, &limits, params)
+            .ok()
+            .flatten()
+            .map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
+    };
+    let degrees = |d: &[f64]| -> Vec<Angle> { d.iter().map(|d| Angle::from_degrees(*d)).collect() };
+    // A face whose edge-on pans lie at 3.4 and 140 (outside the views' arcs): served in the
+    // only arc that holds one, the least ranked, anywhere in it, quantised to whole steps.
+    let face = vec![degrees(&[3.4, 140.0])];
+    assert_eq!(plan(&pans, &face, &first), Some((3.0, (1, 2))));
+    // Without serving faces first the ranks decide: the middle of -90..0 (3.4 is not in it).
+    assert_eq!(
+        plan(&pans, &face, &PlanParams::default()),
+        Some((-45.0, (0, 1)))
+    );
+    // Two open faces: the best-ranked arc holding one serves it, at the pan nearest its
+    // middle.
+    let two = vec![degrees(&[3.4]), degrees(&[-80.0, 100.0]), degrees(&[-50.0])];
+    assert_eq!(plan(&pans, &two, &first), Some((-50.0, (0, 1))));
+    // A face is done when a view lies within AIM_DONE_DEG of either of its pans: a view near
+    // 140 serves the first face (a view the scores do not know of), and the ranks decide.
+    let seen = degrees(&[-90.0, 0.0, 20.0, 60.0, 140.0 - 0.5 * AIM_DONE_DEG]);
+    assert_eq!(plan(&seen, &face, &first), Some((-45.0, (0, 1))));
+    // No face open at all: the ranks alone, as without the option.
+    assert_eq!(
+        plan(&pans, &[], &first),
+        plan(&pans, &[], &PlanParams::default())
+    );
+    // Among recorded views, only a pan within AIM_DONE_DEG of the face's serves it: none
+    // does here, so the ranks decide among what is reachable.
+    let among = |reachable: &[f64]| -> Split {
+        plan_next_among(
+            &pans,
+            &scores,
+            &face,
+            Some(&degrees(reachable)),
+            &limits,
+            &first,
+        )
+        .ok()
+        .flatten()
+        .map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
+    };
+    assert_eq!(
+        among(&[-40.0, 3.4 + 0.5 * AIM_DONE_DEG]),
+        Some((3.4 + 0.5 * AIM_DONE_DEG, (1, 2)))
+    );
+    assert_eq!(
+        among(&[-40.0, 3.4 + 2.0 * AIM_DONE_DEG]),
+        Some((-40.0, (0, 1)))
+    );
     Ok(())
 }
 
@@ -409,7 +482,7 @@ fn among_reachable_pans_the_one_nearest_the_split_is_proposed() -> TestResult {
         p.map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
     };
     let among = |reachable: &[f64], aims: &[f64]| -> Result<Split, aibr_consistency::Error> {
-        let (reachable, aims) = (degrees(reachable), degrees(aims));
+        let (reachable, aims) = (degrees(reachable), faces(aims));
         plan_next_among(&pans, &scores, &aims, Some(&reachable), &limits, &plan).map(split)
     };
     // Anything reachable inside the widest arc: the pan nearest its middle, as it is (a
@@ -462,15 +535,19 @@ proptest! {
         mut degrees in prop::collection::vec(-159.0..159.0f64, 2..20),
         step in 0.01..5.0f64,
         raw_scores in prop::collection::vec(0.0..1000.0f64, 19),
-        aims in prop::collection::vec(-200.0..200.0f64, 0..6),
+        aims in prop::collection::vec(prop::collection::vec(-200.0..200.0f64, 0..3), 0..6),
         aim_reach in 0.0..=1.0f64,
+        faces_first: bool,
     ) {
         let (range, pans, scores) = ring(&mut degrees, &raw_scores);
         let limits = TurntableLimits::new(range, Angle::from_degrees(step));
         prop_assert!(limits.is_ok());
         let Ok(limits) = limits else { return Ok(()) };
-        let aims: Vec<Angle> = aims.iter().map(|d| Angle::from_degrees(*d)).collect();
-        let plan = PlanParams { aim_reach, ..PlanParams::default() };
+        let aims: Vec<Vec<Angle>> = aims
+            .iter()
+            .map(|face| face.iter().map(|d| Angle::from_degrees(*d)).collect())
+            .collect();
+        let plan = PlanParams { aim_reach, faces_first, ..PlanParams::default() };
         let planned = plan_next_aimed(&pans, &scores, &aims, &limits, &plan);
         prop_assert!(planned.is_ok());
         if let Ok(Some(p)) = planned {
