@@ -319,14 +319,15 @@ pub fn plan_next_among(
                 .or_else(|| anywhere(middle))
         }
     };
+    // Serving faces first: a pass over the arcs for an open face, then one for the rank alone.
     let passes: &[bool] = if params.faces_first {
         &[true, false]
     } else {
         &[false]
     };
-    for &whole_arc in passes {
+    for &serve_faces in passes {
         for (_, s) in &order {
-            if let Some(pan) = split(s, whole_arc) {
+            if let Some(pan) = split(s, serve_faces) {
                 return Ok(Some(Proposal {
                     pan,
                     pair: (s.a, s.b),
