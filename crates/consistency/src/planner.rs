@@ -67,8 +67,8 @@ pub struct PlanParams {
     /// within [`AIM_DONE_DEG`] of any of its edge-on pans, the best-ranked arc that holds one
     /// of those pans is split there, whatever `aim_reach`; only then are arcs split by rank
     /// alone ([`plan_next_aimed`]). On `mirror` it puts a view in every face's plane by 24
-    /// views and renders better there, at a small cost on `lambertian`
-    /// (`docs/results.md`, "Session 38").
+    /// views and renders better there, at a small cost on `lambertian` and a large one on
+    /// `head`, whose many faces take most of the views (`docs/results.md`, "Session 38").
     pub faces_first: bool,
 }
 
