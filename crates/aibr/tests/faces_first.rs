@@ -54,6 +54,7 @@ fn served_first_the_block_faces_get_views_in_their_planes() -> Result<(), Box<dy
     // are found in 64^3 models of 12 to 14 views, whose wedges tilt their planes: 0.5-0.8
     // degrees off here), and no two serve the same face.
     let first = added(true)?;
+    assert_eq!(first.len(), 3, "{first:?}");
     let mut served: Vec<usize> = Vec::new();
     for pan in &first {
         let (face, degrees) = faces
