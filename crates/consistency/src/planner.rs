@@ -233,10 +233,13 @@ pub fn plan_next_among(
 ) -> Result<Option<Proposal>> {
     params.validate()?;
     let done = AIM_DONE_DEG.to_radians();
-    let open = |a: &Angle| {
+    // How far `pan` lies from the nearest view (radians; infinite with none).
+    let from_views = |pan: Angle| {
         pans.iter()
-            .all(|p| a.wrapped_difference(*p).radians().abs() > done)
+            .map(|p| pan.wrapped_difference(*p).radians().abs())
+            .fold(f64::INFINITY, f64::min)
     };
+    let open = |a: &Angle| from_views(*a) > done;
     // Serving faces, a face is done when a view lies within `done` of any of its edge-on pans;
     // otherwise each pan is an aim of its own (as measured since session 25).
     let open_aims: Vec<Angle> = aims
@@ -262,10 +265,7 @@ pub fn plan_next_among(
         .collect();
     order.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.a.cmp(&y.1.a)));
     let step = limits.step.radians();
-    let far_enough = |pan: Angle| {
-        pans.iter()
-            .all(|p| pan.wrapped_difference(*p).radians().abs() >= step - 1e-9)
-    };
+    let far_enough = |pan: Angle| from_views(pan) >= step - 1e-9;
     // The reachable pans a proposal may be: inside the range, a step from every view.
     let candidates: Option<Vec<Angle>> = reachable.map(|r| {
         r.iter()
