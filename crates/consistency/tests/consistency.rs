@@ -346,12 +346,23 @@ fn edge_on_pans_put_the_camera_centre_in_the_face_plane() -> TestResult {
     Ok(())
 }
 
-/// Faces of one edge-on pan each, at `degrees`.
-fn faces(degrees: &[f64]) -> Vec<Vec<Angle>> {
-    degrees
-        .iter()
-        .map(|d| vec![Angle::from_degrees(*d)])
-        .collect()
+/// The pans at `d` degrees.
+fn degrees(d: &[f64]) -> Vec<Angle> {
+    d.iter().map(|d| Angle::from_degrees(*d)).collect()
+}
+
+/// Faces of one edge-on pan each, at `d` degrees.
+fn faces(d: &[f64]) -> Vec<Vec<Angle>> {
+    degrees(d).into_iter().map(|a| vec![a]).collect()
+}
+
+/// Where a planner splits, in degrees to a millionth (so that a pan compares with the figure
+/// it was given in), and which pair.
+type Split = Option<(f64, (usize, usize))>;
+
+/// The [`Split`] of a proposal.
+fn split(p: Option<Proposal>) -> Split {
+    p.map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
 }
 
 #[test]
@@ -411,64 +422,47 @@ fn serving_faces_first_splits_the_best_arc_holding_an_open_face() -> TestResult 
         faces_first: true,
         ..PlanParams::default()
     };
-    let plan = |pans: &[Angle], aims: &[Vec<Angle>], params: &PlanParams| -> Split {
-        plan_next_aimed(pans, &scores, aims, &limits, params)
-            .ok()
-            .flatten()
-            .map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
+    let plan = |pans: &[Angle], aims: &[Vec<Angle>], params: &PlanParams| {
+        plan_next_aimed(pans, &scores, aims, &limits, params).map(split)
     };
-    let degrees = |d: &[f64]| -> Vec<Angle> { d.iter().map(|d| Angle::from_degrees(*d)).collect() };
     // A face whose edge-on pans lie at 3.4 and 140 (outside the views' arcs): served in the
     // only arc that holds one, the least ranked, anywhere in it, quantised to whole steps.
     let face = vec![degrees(&[3.4, 140.0])];
-    assert_eq!(plan(&pans, &face, &first), Some((3.0, (1, 2))));
+    assert_eq!(plan(&pans, &face, &first)?, Some((3.0, (1, 2))));
     // Without serving faces first the ranks decide: the middle of -90..0 (3.4 is not in it).
     assert_eq!(
-        plan(&pans, &face, &PlanParams::default()),
+        plan(&pans, &face, &PlanParams::default())?,
         Some((-45.0, (0, 1)))
     );
     // Two open faces: the best-ranked arc holding one serves it, at the pan nearest its
     // middle.
     let two = vec![degrees(&[3.4]), degrees(&[-80.0, 100.0]), degrees(&[-50.0])];
-    assert_eq!(plan(&pans, &two, &first), Some((-50.0, (0, 1))));
+    assert_eq!(plan(&pans, &two, &first)?, Some((-50.0, (0, 1))));
     // A face is done when a view lies within AIM_DONE_DEG of either of its pans: a view near
     // 140 serves the first face (a view the scores do not know of), and the ranks decide.
     let seen = degrees(&[-90.0, 0.0, 20.0, 60.0, 140.0 - 0.5 * AIM_DONE_DEG]);
-    assert_eq!(plan(&seen, &face, &first), Some((-45.0, (0, 1))));
+    assert_eq!(plan(&seen, &face, &first)?, Some((-45.0, (0, 1))));
     // No face open at all: the ranks alone, as without the option.
     assert_eq!(
-        plan(&pans, &[], &first),
-        plan(&pans, &[], &PlanParams::default())
+        plan(&pans, &[], &first)?,
+        plan(&pans, &[], &PlanParams::default())?
     );
     // Among recorded views, only a pan within AIM_DONE_DEG of the face's serves it: none
     // does here, so the ranks decide among what is reachable.
-    let among = |reachable: &[f64]| -> Split {
-        plan_next_among(
-            &pans,
-            &scores,
-            &face,
-            Some(&degrees(reachable)),
-            &limits,
-            &first,
-        )
-        .ok()
-        .flatten()
-        .map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
+    let among = |reachable: &[f64]| {
+        let reachable = degrees(reachable);
+        plan_next_among(&pans, &scores, &face, Some(&reachable), &limits, &first).map(split)
     };
     assert_eq!(
-        among(&[-40.0, 3.4 + 0.5 * AIM_DONE_DEG]),
+        among(&[-40.0, 3.4 + 0.5 * AIM_DONE_DEG])?,
         Some((3.4 + 0.5 * AIM_DONE_DEG, (1, 2)))
     );
     assert_eq!(
-        among(&[-40.0, 3.4 + 2.0 * AIM_DONE_DEG]),
+        among(&[-40.0, 3.4 + 2.0 * AIM_DONE_DEG])?,
         Some((-40.0, (0, 1)))
     );
     Ok(())
 }
-
-/// Where [`plan_next_among`] splits, in degrees to a millionth (so that a pan compares with the
-/// figure it was given in), and which pair.
-type Split = Option<(f64, (usize, usize))>;
 
 #[test]
 fn among_reachable_pans_the_one_nearest_the_split_is_proposed() -> TestResult {
@@ -477,10 +471,6 @@ fn among_reachable_pans_the_one_nearest_the_split_is_proposed() -> TestResult {
     // -90..0 ranks first (the widest), then 0..30, then 30..60.
     let scores = [pair(0, 1, 100.0), pair(1, 2, 100.0), pair(2, 3, 50.0)];
     let plan = PlanParams::default();
-    let degrees = |d: &[f64]| -> Vec<Angle> { d.iter().map(|d| Angle::from_degrees(*d)).collect() };
-    let split = |p: Option<Proposal>| -> Split {
-        p.map(|p| ((p.pan.degrees() * 1e6).round() / 1e6, p.pair))
-    };
     let among = |reachable: &[f64], aims: &[f64]| -> Result<Split, aibr_consistency::Error> {
         let (reachable, aims) = (degrees(reachable), faces(aims));
         plan_next_among(&pans, &scores, &aims, Some(&reachable), &limits, &plan).map(split)
