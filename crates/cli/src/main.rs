@@ -292,6 +292,18 @@ struct PlanArgs {
     faces_first: bool,
 }
 
+impl PlanArgs {
+    /// `params` with the planner these options ask for.
+    fn apply(&self, params: CaptureParams) -> CaptureParams {
+        CaptureParams {
+            width_power: self.width_power,
+            aim_reach: self.aim_reach,
+            faces_first: self.faces_first,
+            ..params
+        }
+    }
+}
+
 #[derive(clap::Args)]
 struct EvalArgs {
     /// The rig: sim:SCENE (the truth is the scene, rendered at every uncaptured angle;
@@ -373,6 +385,15 @@ enum StrategyArg {
     Active,
     /// The baseline: every view spread uniformly.
     Uniform,
+}
+
+impl From<StrategyArg> for Strategy {
+    fn from(s: StrategyArg) -> Self {
+        match s {
+            StrategyArg::Active => Strategy::Active,
+            StrategyArg::Uniform => Strategy::Uniform,
+        }
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -1036,20 +1057,15 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
     rig: &mut R,
     calibration: &aibr::Calibration,
 ) -> Result<()> {
-    let params = CaptureParams {
-        strategy: match a.strategy {
-            StrategyArg::Active => Strategy::Active,
-            StrategyArg::Uniform => Strategy::Uniform,
-        },
+    let params = a.plan.apply(CaptureParams {
+        strategy: a.strategy.into(),
         initial: a.initial,
         max: a.max,
         refine_every: a.refine_every,
         grid: a.grid,
         consistent_below: a.consistent_below,
-        width_power: a.plan.width_power,
-        aim_reach: a.plan.aim_reach,
-        faces_first: a.plan.faces_first,
-    };
+        ..CaptureParams::default()
+    });
     let mut session = if a.resume {
         let s = Session::open(&a.out).with_context(|| format!("resuming {}", a.out.display()))?;
         s.check_parameters(spec, &params)?;
@@ -1204,24 +1220,14 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
     } else {
         a.checkpoints.clone()
     };
-    let strategies: Vec<Strategy> = a
-        .strategy
-        .iter()
-        .map(|s| match s {
-            StrategyArg::Active => Strategy::Active,
-            StrategyArg::Uniform => Strategy::Uniform,
-        })
-        .collect();
+    let strategies: Vec<Strategy> = a.strategy.iter().map(|&s| s.into()).collect();
     let params = aibr::EvalParams {
-        capture: CaptureParams {
+        capture: a.plan.apply(CaptureParams {
             initial: a.initial,
             max,
             grid: a.capture_grid,
-            width_power: a.plan.width_power,
-            aim_reach: a.plan.aim_reach,
-            faces_first: a.plan.faces_first,
             ..CaptureParams::default()
-        },
+        }),
         checkpoints,
         grid: a.grid,
         step: Angle::from_degrees(a.step_deg),
