@@ -26,7 +26,8 @@
 //! machine, `mirror` from 12 to 24 views took 41 minutes at `STEP` 1 with `SPLITS` 1, and 37
 //! minutes at `STEP` 3 with `SPLITS` 3.
 
-use std::collections::HashMap;
+use std::collections::hash_map::Entry;
+use std::collections::{HashMap, HashSet};
 
 use aibr::camera::{Aabb, Angle};
 use aibr::render::{RenderParams, Renderer, SourceView, metrics};
@@ -92,15 +93,14 @@ impl Oracle {
     /// number of the turntable's steps).
     fn shoot(&mut self, pan: Angle) -> Result<Angle> {
         let reached = self.rig.move_to(pan)?;
-        let key = reached.radians().to_bits();
-        if !self.shots.contains_key(&key) {
+        if let Entry::Vacant(e) = self.shots.entry(reached.radians().to_bits()) {
             let frame = self.rig.capture()?;
             let mask = frame.mask.ok_or("the synthetic rig gave no object mask")?;
             let source = SourceView {
                 camera: self.calibration.camera_at(reached),
                 image: frame.image,
             };
-            self.shots.insert(key, Shot { source, mask });
+            e.insert(Shot { source, mask });
         }
         Ok(reached)
     }
@@ -130,12 +130,10 @@ impl Oracle {
         let (arc, turn) = (panel_side(), self.rig.turn());
         let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
         for (pan, camera) in self.rig.novel_views(pans, self.step)? {
-            let key = pan.radians().to_bits();
-            if !self.truths.contains_key(&key) {
-                let truth = self.rig.truth(pan, &camera)?;
-                self.truths.insert(key, truth);
-            }
-            let (truth, mask) = &self.truths[&key];
+            let (truth, mask) = match self.truths.entry(pan.radians().to_bits()) {
+                Entry::Occupied(e) => e.into_mut(),
+                Entry::Vacant(e) => e.insert(self.rig.truth(pan, &camera)?),
+            };
             let view = renderer.render(&camera)?;
             let psnr = metrics::psnr(truth, &view.rgb, Some(mask))?;
             all.push(psnr);
@@ -205,12 +203,14 @@ fn main() -> Result<()> {
     while pans.len() < budget {
         pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
         let mut best: Option<(Angle, Figures)> = None;
+        // The pans tried this step: a short arc's splits can round to the same whole step.
+        let mut tried = HashSet::new();
         for w in pans.windows(2) {
             let (a, b) = (w[0].radians(), w[1].radians());
             for k in 1..=splits {
                 let t = k as f64 / (splits + 1) as f64;
                 let pan = oracle.shoot(Angle::from_radians(a + t * (b - a)))?;
-                if pan == w[0] || pan == w[1] || best.is_some_and(|(p, _)| p == pan) {
+                if pan == w[0] || pan == w[1] || !tried.insert(pan.radians().to_bits()) {
                     continue; // an arc too short to split there, or a pan already tried
                 }
                 let mut with = pans.clone();
