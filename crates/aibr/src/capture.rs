@@ -77,6 +77,9 @@ pub struct CaptureParams {
     /// Serve every flat face of the model with a view in its plane before splitting arcs by
     /// rank alone (default false; [`PlanParams::faces_first`]).
     pub faces_first: bool,
+    /// Serving faces first, a face is served by a view within this many degrees of its plane
+    /// (default 1; [`PlanParams::face_served_deg`]).
+    pub face_served_deg: f64,
 }
 
 impl Default for CaptureParams {
@@ -91,6 +94,7 @@ impl Default for CaptureParams {
             width_power: PlanParams::default().width_power,
             aim_reach: PlanParams::default().aim_reach,
             faces_first: PlanParams::default().faces_first,
+            face_served_deg: PlanParams::default().face_served_deg,
         }
     }
 }
@@ -127,6 +131,7 @@ impl CaptureParams {
             width_power: self.width_power,
             aim_reach: self.aim_reach,
             faces_first: self.faces_first,
+            face_served_deg: self.face_served_deg,
         }
     }
 }

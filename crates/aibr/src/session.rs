@@ -86,6 +86,10 @@ pub struct ParametersRecord {
     /// which did not.
     #[serde(default)]
     pub faces_first: bool,
+    /// Serving faces first, how near a face's plane (degrees) a view served it; 1 in files
+    /// written before it was recorded, which served faces within 1 degree.
+    #[serde(default = "ParametersRecord::face_served_deg_before_recorded")]
+    pub face_served_deg: f64,
 }
 
 impl ParametersRecord {
@@ -101,11 +105,35 @@ impl ParametersRecord {
             width_power: params.width_power,
             aim_reach: params.aim_reach,
             faces_first: params.faces_first,
+            face_served_deg: params.face_served_deg,
         }
     }
 
     fn width_power_before_recorded() -> f64 {
         1.0
+    }
+
+    fn face_served_deg_before_recorded() -> f64 {
+        1.0
+    }
+
+    /// The planner's fields as they bore on the views: as recorded for active capture, and
+    /// `unused` where no planner chose the views (uniform capture), or for the face tolerance
+    /// where faces were not served first. A session may be resumed with any value of an
+    /// unused field.
+    fn planner_as_used(&self) -> [(&'static str, String); 5] {
+        let active = self.strategy == crate::Strategy::Active.name();
+        [
+            ("consistent_below", self.consistent_below.to_string()),
+            ("width_power", self.width_power.to_string()),
+            ("aim_reach", self.aim_reach.to_string()),
+            ("faces_first", self.faces_first.to_string()),
+            ("face_served_deg", self.face_served_deg.to_string()),
+        ]
+        .map(|(field, value)| {
+            let used = active && (field != "face_served_deg" || self.faces_first);
+            (field, if used { value } else { "unused".to_owned() })
+        })
     }
 }
 
@@ -385,13 +413,15 @@ impl Session {
 
     /// Refuses to continue this session on `rig` with `params` unless they are what it was
     /// captured with: views planned under other parameters would be mixed with new ones.
-    /// The error names the first field that differs.
+    /// The planner's fields count only where a planner chose the views: not for uniform
+    /// capture, and the face tolerance only with faces served first. The error names the
+    /// first field that differs.
     pub fn check_parameters(&self, rig: &str, params: &crate::CaptureParams) -> Result<()> {
         let (file, given) = (self.file(), ParametersRecord::of(params));
         let have = &file.parameters;
         let fields = [
             ("rig", file.rig.clone(), rig.to_owned()),
-            ("strategy", have.strategy.clone(), given.strategy),
+            ("strategy", have.strategy.clone(), given.strategy.clone()),
             (
                 "initial",
                 have.initial.to_string(),
@@ -404,27 +434,14 @@ impl Session {
                 given.refine_every.to_string(),
             ),
             ("grid", have.grid.to_string(), given.grid.to_string()),
-            (
-                "consistent_below",
-                have.consistent_below.to_string(),
-                given.consistent_below.to_string(),
-            ),
-            (
-                "width_power",
-                have.width_power.to_string(),
-                given.width_power.to_string(),
-            ),
-            (
-                "aim_reach",
-                have.aim_reach.to_string(),
-                given.aim_reach.to_string(),
-            ),
-            (
-                "faces_first",
-                have.faces_first.to_string(),
-                given.faces_first.to_string(),
-            ),
-        ];
+        ]
+        .into_iter()
+        .chain(
+            have.planner_as_used()
+                .into_iter()
+                .zip(given.planner_as_used())
+                .map(|((field, recorded), (_, given))| (field, recorded, given)),
+        );
         match fields
             .into_iter()
             .find(|(_, recorded, given)| recorded != given)
@@ -741,6 +758,83 @@ mod tests {
         let views = Session::open(&dir)?.load_views()?;
         assert_eq!(views.len(), 2);
         assert_eq!((views[1].record.index, &views[1].image), (1, &grey(30)));
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(())
+    }
+
+    /// The planner's fields are checked on resume only where they planned: not for uniform
+    /// capture, and the face tolerance only with faces served first. A file written before the
+    /// tolerance was recorded was planned at 1 degree.
+    #[test]
+    fn planner_fields_are_checked_only_where_they_planned()
+    -> std::result::Result<(), Box<dyn std::error::Error>> {
+        let (dir, session) = fresh("face-tolerance")?;
+        drop(session);
+        let path = dir.join("session.json");
+        // Rewrites the folder's parameters as `edit` makes them of the defaults' record.
+        let rewrite = |edit: &dyn Fn(&mut serde_json::Map<String, serde_json::Value>)| {
+            let mut json: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&path)?)?;
+            let mut parameters =
+                serde_json::to_value(ParametersRecord::of(&crate::CaptureParams::default()))?;
+            edit(parameters.as_object_mut().ok_or("parameters not a map")?);
+            json["parameters"] = parameters;
+            std::fs::write(&path, serde_json::to_string_pretty(&json)?)?;
+            Session::open(&dir).map_err(Box::<dyn std::error::Error>::from)
+        };
+        let params = crate::CaptureParams::default();
+        let first = |face_served_deg| crate::CaptureParams {
+            faces_first: true,
+            face_served_deg,
+            ..params
+        };
+        // Not serving faces first, the tolerance did not plan, so any resumes.
+        let session = rewrite(&|_| ())?;
+        session.check_parameters("sim:mirror", &params)?;
+        session.check_parameters(
+            "sim:mirror",
+            &crate::CaptureParams {
+                face_served_deg: 1.0,
+                ..params
+            },
+        )?;
+        // Uniform capture: no planner chose its views, so none of its fields count; the budget
+        // still does.
+        let session = rewrite(&|p| {
+            p.insert("strategy".into(), "uniform".into());
+        })?;
+        let uniform = crate::CaptureParams {
+            strategy: crate::Strategy::Uniform,
+            ..params
+        };
+        let replanned = crate::CaptureParams {
+            width_power: 1.0,
+            aim_reach: 0.0,
+            faces_first: true,
+            face_served_deg: 1.0,
+            ..uniform
+        };
+        session.check_parameters("sim:mirror", &replanned)?;
+        let err = session
+            .check_parameters("sim:mirror", &crate::CaptureParams { max: 36, ..uniform })
+            .err()
+            .ok_or("resumed with another budget")?;
+        assert!(err.to_string().contains("max 48, not 36"), "{err}");
+        // Serving faces first, before the tolerance was recorded: planned at 1 degree.
+        let session = rewrite(&|p| {
+            p.remove("face_served_deg");
+            p.insert("faces_first".into(), true.into());
+        })?;
+        assert_eq!(session.file().parameters.face_served_deg, 1.0);
+        session.check_parameters("sim:mirror", &first(1.0))?;
+        let err = session
+            .check_parameters("sim:mirror", &first(2.5))
+            .err()
+            .ok_or("resumed at another tolerance")?;
+        assert!(
+            err.to_string().contains("face_served_deg 1, not 2.5"),
+            "{err}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
         Ok(())
     }

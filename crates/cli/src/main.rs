@@ -281,7 +281,7 @@ struct PlanArgs {
     )]
     aim_reach: f64,
     /// The active planner first serves every flat face of the model: while a face has no view
-    /// within a degree of a pan that sees it edge-on, it splits the best-ranked arc holding
+    /// within `--face-served-deg` of a pan that sees it edge-on, it splits the best-ranked arc holding
     /// such a pan there, and only then splits arcs by rank alone (true or false).
     #[arg(
         long,
@@ -290,6 +290,15 @@ struct PlanArgs {
         action = clap::ArgAction::Set
     )]
     faces_first: bool,
+    /// Serving faces first, a face counts as served when a view lies within this many degrees
+    /// of a pan that sees it edge-on (more than 0, at most 10).
+    #[arg(
+        long,
+        default_value_t = CaptureParams::default().face_served_deg,
+        value_name = "DEG",
+        allow_hyphen_values = true
+    )]
+    face_served_deg: f64,
 }
 
 impl PlanArgs {
@@ -299,6 +308,7 @@ impl PlanArgs {
             width_power: self.width_power,
             aim_reach: self.aim_reach,
             faces_first: self.faces_first,
+            face_served_deg: self.face_served_deg,
             ..params
         }
     }

@@ -697,8 +697,8 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
         .arg(temp("negative"))
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("consistent_below"));
-    // A width power, an aim reach or a scene turn out of its domain is refused, naming it,
-    // before a session folder is made.
+    // A width power, an aim reach, a face tolerance or a scene turn out of its domain is
+    // refused, naming it, before a session folder is made.
     for (flag, bad, named) in [
         ("--width-power", "-1", "width_power"),
         ("--width-power", "9", "width_power"),
@@ -706,6 +706,8 @@ fn capture_stops_when_every_arc_is_consistent() -> TestResult {
         ("--aim-reach", "-0.5", "aim_reach"),
         ("--aim-reach", "1.5", "aim_reach"),
         ("--faces-first", "maybe", "faces-first"),
+        ("--face-served-deg", "0", "face_served_deg"),
+        ("--face-served-deg", "12", "face_served_deg"),
         ("--rig", "sim:mirror@x", "scene turn"),
         ("--rig", "sim:mirror@190", "scene turn"),
     ] {

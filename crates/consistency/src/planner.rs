@@ -64,12 +64,19 @@ pub struct PlanParams {
     /// view there cuts away the wedge of visual hull a face seen only at a slant keeps.
     pub aim_reach: f64,
     /// Serve every face first (default false): while a flat face of the model has no view
-    /// within [`AIM_DONE_DEG`] of any of its edge-on pans, the best-ranked arc that holds one
+    /// within `face_served_deg` of any of its edge-on pans, the best-ranked arc that holds one
     /// of those pans is split there, whatever `aim_reach`; only then are arcs split by rank
     /// alone ([`plan_next_aimed`]). On `mirror` it puts a view in every face's plane by 24
     /// views and renders better there, at a small cost on `lambertian` and a large one on
     /// `head`, whose many faces take most of the views (`docs/results.md`, "Session 38").
     pub faces_first: bool,
+    /// Serving faces first, a face counts as served when a view lies within this many degrees
+    /// of one of its edge-on pans (default [`AIM_DONE_DEG`], 1; more than 0, at most
+    /// [`PlanParams::MAX_FACE_SERVED_DEG`]). Unused without `faces_first`. At 2.5 degrees, where
+    /// session 22 found faces thin, `lambertian` and `head` rendered a little better with 24
+    /// views and `mirror` worse: some faces came out fat again (`docs/results.md`, "Session
+    /// 39").
+    pub face_served_deg: f64,
 }
 
 impl Default for PlanParams {
@@ -79,6 +86,7 @@ impl Default for PlanParams {
             width_power: 3.0,
             aim_reach: 0.5,
             faces_first: false,
+            face_served_deg: AIM_DONE_DEG,
         }
     }
 }
@@ -87,8 +95,14 @@ impl PlanParams {
     /// The largest width power accepted.
     pub const MAX_WIDTH_POWER: f64 = 8.0;
 
-    /// Rejects a negative or non-finite threshold, and a width power outside
-    /// `0..=MAX_WIDTH_POWER`.
+    /// The widest tolerance for a face served (degrees). A view that far from a face's plane
+    /// sees it at a slant: faces came out thin only with a view within about 2.5 degrees
+    /// (`docs/results.md`, "Session 22").
+    pub const MAX_FACE_SERVED_DEG: f64 = 10.0;
+
+    /// Rejects a negative or non-finite threshold, a width power outside
+    /// `0..=MAX_WIDTH_POWER`, an aim reach outside `0..=1` and a face tolerance outside
+    /// `(0, MAX_FACE_SERVED_DEG]`.
     pub fn validate(&self) -> Result<()> {
         if !(self.consistent_below >= 0.0 && self.consistent_below.is_finite()) {
             return Err(Error::InvalidParameter {
@@ -109,6 +123,13 @@ impl PlanParams {
                 name: "aim_reach",
                 value: self.aim_reach,
                 reason: "must be between 0 and 1",
+            });
+        }
+        if !(self.face_served_deg > 0.0 && self.face_served_deg <= Self::MAX_FACE_SERVED_DEG) {
+            return Err(Error::InvalidParameter {
+                name: "face_served_deg",
+                value: self.face_served_deg,
+                reason: "must be more than 0 and at most 10 degrees",
             });
         }
         Ok(())
@@ -178,8 +199,9 @@ pub fn plan_next(
 /// half-width from the middle, the one nearest the middle is proposed instead of the middle:
 /// the arc to split is the estimate's choice, where in it the aims' (`docs/consistency.md`).
 ///
-/// With `params.faces_first`, a face is done when a view lies within [`AIM_DONE_DEG`] of any
-/// of its pans (either sees the same plane), and while one is not, the best-ranked arc that
+/// With `params.faces_first`, a face is done when a view lies within
+/// `params.face_served_deg` of any of its pans (either sees the same plane), and while one is
+/// not, the best-ranked arc that
 /// holds one of its pans is split there (the one nearest the arc's middle when several are),
 /// wherever in the arc it lies; only when no arc holds a pan of an open face are arcs split
 /// as above.
@@ -233,6 +255,7 @@ pub fn plan_next_among(
 ) -> Result<Option<Proposal>> {
     params.validate()?;
     let done = AIM_DONE_DEG.to_radians();
+    let served = params.face_served_deg.to_radians();
     // How far `pan` lies from the nearest view (radians; infinite with none).
     let from_views = |pan: Angle| {
         pans.iter()
@@ -240,11 +263,12 @@ pub fn plan_next_among(
             .fold(f64::INFINITY, f64::min)
     };
     let open = |a: &Angle| from_views(*a) > done;
-    // Serving faces, a face is done when a view lies within `done` of any of its edge-on pans;
-    // otherwise each pan is an aim of its own (as measured since session 25).
+    // Serving faces, a face is done when a view lies within `served` of any of its edge-on
+    // pans; otherwise each pan is an aim of its own (as measured since session 25).
+    let served_face = |face: &Vec<Angle>| face.iter().any(|a| from_views(*a) <= served);
     let open_aims: Vec<Angle> = aims
         .iter()
-        .filter(|face| !params.faces_first || face.iter().all(open))
+        .filter(|face| !(params.faces_first && served_face(face)))
         .flatten()
         .copied()
         .filter(open)
@@ -309,8 +333,9 @@ pub fn plan_next_among(
             }
         };
         if serve_faces {
-            // A face is served only by a pan that serves it.
-            aims.iter().find_map(|&o| at(o, done))
+            // A face is served only by a pan that serves it (on a replayed ring, a recorded
+            // view within `served` of its pan).
+            aims.iter().find_map(|&o| at(o, served))
         } else {
             // Anywhere in the arc, nearest the aim, else nearest the middle.
             let anywhere = |o: f64| at(o, f64::INFINITY);

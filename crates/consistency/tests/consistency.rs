@@ -438,29 +438,49 @@ fn serving_faces_first_splits_the_best_arc_holding_an_open_face() -> TestResult 
     // middle.
     let two = vec![degrees(&[3.4]), degrees(&[-80.0, 100.0]), degrees(&[-50.0])];
     assert_eq!(plan(&pans, &two, &first)?, Some((-50.0, (0, 1))));
-    // A face is done when a view lies within AIM_DONE_DEG of either of its pans: a view near
-    // 140 serves the first face (a view the scores do not know of), and the ranks decide.
-    let seen = degrees(&[-90.0, 0.0, 20.0, 60.0, 140.0 - 0.5 * AIM_DONE_DEG]);
+    // A face is done when a view lies within `face_served_deg` (AIM_DONE_DEG unless set) of
+    // either of its pans: a view near 140 serves the first face (a view the scores do not know
+    // of), and the ranks decide.
+    let served = first.face_served_deg;
+    assert_eq!(served, AIM_DONE_DEG);
+    let seen = degrees(&[-90.0, 0.0, 20.0, 60.0, 140.0 - 0.9 * served]);
     assert_eq!(plan(&seen, &face, &first)?, Some((-45.0, (0, 1))));
+    // Beyond the tolerance the face is still open; a wider one counts the same view as
+    // serving it.
+    let near = degrees(&[-90.0, 0.0, 20.0, 60.0, 140.0 - 1.5 * served]);
+    assert_eq!(plan(&near, &face, &first)?, Some((3.0, (1, 2))));
+    let wide = PlanParams {
+        face_served_deg: 2.0 * served,
+        ..first
+    };
+    assert_eq!(plan(&near, &face, &wide)?, Some((-45.0, (0, 1))));
     // No face open at all: the ranks alone, as without the option.
     assert_eq!(
         plan(&pans, &[], &first)?,
         plan(&pans, &[], &PlanParams::default())?
     );
-    // Among recorded views, only a pan within AIM_DONE_DEG of the face's serves it: none
-    // does here, so the ranks decide among what is reachable.
+    // Among recorded views, only a pan within the tolerance of the face's serves it: none
+    // does in the second case, so the ranks decide among what is reachable.
     let among = |reachable: &[f64]| {
         let reachable = degrees(reachable);
         plan_next_among(&pans, &scores, &face, Some(&reachable), &limits, &first).map(split)
     };
     assert_eq!(
-        among(&[-40.0, 3.4 + 0.5 * AIM_DONE_DEG])?,
-        Some((3.4 + 0.5 * AIM_DONE_DEG, (1, 2)))
+        among(&[-40.0, 3.4 + 0.9 * served])?,
+        Some((3.4 + 0.9 * served, (1, 2)))
     );
-    assert_eq!(
-        among(&[-40.0, 3.4 + 2.0 * AIM_DONE_DEG])?,
-        Some((-40.0, (0, 1)))
-    );
+    assert_eq!(among(&[-40.0, 3.4 + 1.1 * served])?, Some((-40.0, (0, 1))));
+    // A tolerance outside (0, 10] degrees is refused, naming the field.
+    for bad in [0.0, -1.0, 10.5, f64::NAN] {
+        let bad = PlanParams {
+            face_served_deg: bad,
+            ..first
+        };
+        let err = plan(&pans, &face, &bad)
+            .err()
+            .ok_or("accepted a bad tolerance")?;
+        assert!(err.to_string().contains("face_served_deg"), "{err}");
+    }
     Ok(())
 }
 
@@ -528,6 +548,7 @@ proptest! {
         aims in prop::collection::vec(prop::collection::vec(-200.0..200.0f64, 0..3), 0..6),
         aim_reach in 0.0..=1.0f64,
         faces_first: bool,
+        face_served_deg in 0.1..=10.0f64,
     ) {
         let (range, pans, scores) = ring(&mut degrees, &raw_scores);
         let limits = TurntableLimits::new(range, Angle::from_degrees(step));
@@ -537,7 +558,7 @@ proptest! {
             .iter()
             .map(|face| face.iter().map(|d| Angle::from_degrees(*d)).collect())
             .collect();
-        let plan = PlanParams { aim_reach, faces_first, ..PlanParams::default() };
+        let plan = PlanParams { aim_reach, faces_first, face_served_deg, ..PlanParams::default() };
         let planned = plan_next_aimed(&pans, &scores, &aims, &limits, &plan);
         prop_assert!(planned.is_ok());
         if let Ok(Some(p)) = planned {
