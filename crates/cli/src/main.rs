@@ -281,8 +281,8 @@ struct PlanArgs {
     )]
     aim_reach: f64,
     /// The active planner first serves every flat face of the model: while a face has no view
-    /// within `--face-served-deg` of a pan that sees it edge-on, it splits the best-ranked arc holding
-    /// such a pan there, and only then splits arcs by rank alone (true or false).
+    /// within `--face-served-deg` of a pan that sees it edge-on, it splits the best-ranked arc
+    /// holding such a pan there, and only then splits arcs by rank alone (true or false).
     #[arg(
         long,
         default_value_t = CaptureParams::default().faces_first,

@@ -200,11 +200,10 @@ pub fn plan_next(
 /// the arc to split is the estimate's choice, where in it the aims' (`docs/consistency.md`).
 ///
 /// With `params.faces_first`, a face is done when a view lies within
-/// `params.face_served_deg` of any of its pans (either sees the same plane), and while one is
-/// not, the best-ranked arc that
-/// holds one of its pans is split there (the one nearest the arc's middle when several are),
-/// wherever in the arc it lies; only when no arc holds a pan of an open face are arcs split
-/// as above.
+/// `params.face_served_deg` (instead of [`AIM_DONE_DEG`]) of any of its pans (either sees the
+/// same plane), and while one is not, the best-ranked arc that holds one of its pans is split
+/// there (the one nearest the arc's middle when several are), wherever in the arc it lies;
+/// only when no arc holds a pan of an open face are arcs split as above.
 pub fn plan_next_aimed(
     pans: &[Angle],
     scores: &[PairScore],
@@ -254,8 +253,15 @@ pub fn plan_next_among(
     params: &PlanParams,
 ) -> Result<Option<Proposal>> {
     params.validate()?;
-    let done = AIM_DONE_DEG.to_radians();
-    let served = params.face_served_deg.to_radians();
+    // An aim is done when a view lies within `done` of it; serving faces, a face is done when
+    // one lies within that of any of its edge-on pans; otherwise each pan is an aim of its own
+    // (as measured since session 25).
+    let done = if params.faces_first {
+        params.face_served_deg
+    } else {
+        AIM_DONE_DEG
+    }
+    .to_radians();
     // How far `pan` lies from the nearest view (radians; infinite with none).
     let from_views = |pan: Angle| {
         pans.iter()
@@ -263,12 +269,9 @@ pub fn plan_next_among(
             .fold(f64::INFINITY, f64::min)
     };
     let open = |a: &Angle| from_views(*a) > done;
-    // Serving faces, a face is done when a view lies within `served` of any of its edge-on
-    // pans; otherwise each pan is an aim of its own (as measured since session 25).
-    let served_face = |face: &Vec<Angle>| face.iter().any(|a| from_views(*a) <= served);
     let open_aims: Vec<Angle> = aims
         .iter()
-        .filter(|face| !(params.faces_first && served_face(face)))
+        .filter(|face| !params.faces_first || face.iter().all(open))
         .flatten()
         .copied()
         .filter(open)
@@ -334,8 +337,8 @@ pub fn plan_next_among(
         };
         if serve_faces {
             // A face is served only by a pan that serves it (on a replayed ring, a recorded
-            // view within `served` of its pan).
-            aims.iter().find_map(|&o| at(o, served))
+            // view within `done` of its pan).
+            aims.iter().find_map(|&o| at(o, done))
         } else {
             // Anywhere in the arc, nearest the aim, else nearest the middle.
             let anywhere = |o: f64| at(o, f64::INFINITY);

@@ -454,6 +454,14 @@ fn serving_faces_first_splits_the_best_arc_holding_an_open_face() -> TestResult 
         ..first
     };
     assert_eq!(plan(&near, &face, &wide)?, Some((-45.0, (0, 1))));
+    // A tighter one asks again for a face whose view lies beside its pan, not within it.
+    let beside = degrees(&[-90.0, 0.0, 20.0, 60.0, 3.4 + 0.7 * served]);
+    assert_eq!(plan(&beside, &face, &first)?, Some((-45.0, (0, 1))));
+    let tight = PlanParams {
+        face_served_deg: 0.5 * served,
+        ..first
+    };
+    assert_eq!(plan(&beside, &face, &tight)?, Some((3.0, (1, 2))));
     // No face open at all: the ranks alone, as without the option.
     assert_eq!(
         plan(&pans, &[], &first)?,
