@@ -72,10 +72,10 @@ pub struct PlanParams {
     pub faces_first: bool,
     /// Serving faces first, a face counts as served when a view lies within this many degrees
     /// of one of its edge-on pans (default [`AIM_DONE_DEG`], 1; more than 0, at most
-    /// [`PlanParams::MAX_FACE_SERVED_DEG`]). Unused without `faces_first`. At 2.5 degrees, where
-    /// session 22 found faces thin, `lambertian` and `head` rendered a little better with 24
-    /// views and `mirror` worse: some faces came out fat again (`docs/results.md`, "Session
-    /// 39").
+    /// [`PlanParams::MAX_FACE_SERVED_DEG`]). Unused without `faces_first`. At 2.5 degrees
+    /// `lambertian` and `head` rendered a little better with 24 views and `mirror` worse, some
+    /// of its faces fat again; at 0.5, `mirror` spent views in pairs a degree apart and
+    /// rendered worse with 24 views, better with 36 and 48 (`docs/results.md`, "Session 39").
     pub face_served_deg: f64,
 }
 
