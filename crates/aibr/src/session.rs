@@ -123,17 +123,23 @@ impl ParametersRecord {
     /// unused field.
     fn planner_as_used(&self) -> [(&'static str, String); 5] {
         let active = self.strategy == crate::Strategy::Active.name();
+        let shown = |used: bool, value: &dyn ToString| {
+            if used {
+                value.to_string()
+            } else {
+                "unused".to_owned()
+            }
+        };
         [
-            ("consistent_below", self.consistent_below.to_string()),
-            ("width_power", self.width_power.to_string()),
-            ("aim_reach", self.aim_reach.to_string()),
-            ("faces_first", self.faces_first.to_string()),
-            ("face_served_deg", self.face_served_deg.to_string()),
+            ("consistent_below", shown(active, &self.consistent_below)),
+            ("width_power", shown(active, &self.width_power)),
+            ("aim_reach", shown(active, &self.aim_reach)),
+            ("faces_first", shown(active, &self.faces_first)),
+            (
+                "face_served_deg",
+                shown(active && self.faces_first, &self.face_served_deg),
+            ),
         ]
-        .map(|(field, value)| {
-            let used = active && (field != "face_served_deg" || self.faces_first);
-            (field, if used { value } else { "unused".to_owned() })
-        })
     }
 }
 
@@ -419,7 +425,7 @@ impl Session {
     pub fn check_parameters(&self, rig: &str, params: &crate::CaptureParams) -> Result<()> {
         let (file, given) = (self.file(), ParametersRecord::of(params));
         let have = &file.parameters;
-        let fields = [
+        let mut fields = [
             ("rig", file.rig.clone(), rig.to_owned()),
             ("strategy", have.strategy.clone(), given.strategy.clone()),
             (
@@ -442,10 +448,7 @@ impl Session {
                 .zip(given.planner_as_used())
                 .map(|((field, recorded), (_, given))| (field, recorded, given)),
         );
-        match fields
-            .into_iter()
-            .find(|(_, recorded, given)| recorded != given)
-        {
+        match fields.find(|(_, recorded, given)| recorded != given) {
             None => Ok(()),
             Some((field, recorded, given)) => Err(Error::ParametersDiffer {
                 path: self.dir().to_path_buf(),
