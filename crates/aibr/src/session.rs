@@ -791,13 +791,14 @@ mod tests {
             face_served_deg,
             ..params
         };
-        // Not serving faces first, the tolerance did not plan, so any resumes.
+        // Not serving faces first, the tolerance did not plan, so any resumes (the default is
+        // 1 degree, so 2.5 differs from what was recorded).
         let session = rewrite(&|_| ())?;
         session.check_parameters("sim:mirror", &params)?;
         session.check_parameters(
             "sim:mirror",
             &crate::CaptureParams {
-                face_served_deg: 1.0,
+                face_served_deg: 2.5,
                 ..params
             },
         )?;
@@ -814,7 +815,7 @@ mod tests {
             width_power: 1.0,
             aim_reach: 0.0,
             faces_first: true,
-            face_served_deg: 1.0,
+            face_served_deg: 2.5,
             ..uniform
         };
         session.check_parameters("sim:mirror", &replanned)?;
