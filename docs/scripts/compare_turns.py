@@ -20,11 +20,26 @@ import sys
 
 
 def load_turns(path):
-    with open(path) as f:
-        doc = json.load(f)
+    """The results of each turn of an `aibr eval --turns` JSON, by turn (degrees)."""
+    try:
+        with open(path) as f:
+            doc = json.load(f)
+    except (OSError, json.JSONDecodeError) as e:
+        sys.exit(f"{path}: {e}")
     if "turns" not in doc:
         sys.exit(f"{path}: not an `aibr eval --turns` JSON (no 'turns')")
     return {round(t["turn_deg"], 3): t["results"] for t in doc["turns"]}
+
+
+def object_arc(arg):
+    """The object's arc FROM:TO (degrees) of a command line argument; 20:160 without one."""
+    if arg is None:
+        return 20.0, 160.0
+    try:
+        lo, hi = (float(x) for x in arg.split(":"))
+    except ValueError:
+        sys.exit(f"arc {arg!r}: expected FROM:TO in degrees")
+    return lo, hi
 
 
 def strategy(results, name, path):
@@ -49,12 +64,7 @@ def main():
     if len(sys.argv) not in (3, 4):
         sys.exit(__doc__)
     active_path, uniform_path = sys.argv[1], sys.argv[2]
-    lo, hi = 20.0, 160.0
-    if len(sys.argv) == 4:
-        try:
-            lo, hi = (float(x) for x in sys.argv[3].split(":"))
-        except ValueError:
-            sys.exit(f"arc {sys.argv[3]!r}: expected FROM:TO in degrees")
+    lo, hi = object_arc(sys.argv[3] if len(sys.argv) == 4 else None)
     new, old = load_turns(active_path), load_turns(uniform_path)
     missing = sorted(set(new) - set(old))
     if missing:

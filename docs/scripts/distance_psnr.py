@@ -16,8 +16,9 @@ side a view renders as well 1 degree from a captured one as 4 degrees from it, a
 worse with every degree.
 """
 import collections
-import json
 import sys
+
+from compare_turns import load_turns, object_arc
 
 
 def wrap(degrees):
@@ -27,34 +28,22 @@ def wrap(degrees):
 def main():
     if len(sys.argv) not in (2, 3):
         sys.exit(__doc__)
-    path = sys.argv[1]
-    lo, hi = 20.0, 160.0
-    if len(sys.argv) == 3:
-        try:
-            lo, hi = (float(x) for x in sys.argv[2].split(":"))
-        except ValueError:
-            sys.exit(f"{sys.argv[2]!r}: not FROM:TO in degrees")
-    try:
-        with open(path) as f:
-            doc = json.load(f)
-    except (OSError, json.JSONDecodeError) as e:
-        sys.exit(f"{path}: {e}")
-    if "turns" not in doc:
-        sys.exit(f"{path}: not an `aibr eval --turns` JSON (no 'turns')")
+    turns = load_turns(sys.argv[1])
+    lo, hi = object_arc(sys.argv[2] if len(sys.argv) == 3 else None)
     # (turn, whole-degree pan) -> [(distance, on the arc, psnr)], one per set rendering it.
     samples = collections.defaultdict(list)
     sets = collections.Counter()
-    for turn in doc["turns"]:
-        for result in turn["results"]:
+    for turn_deg, results in turns.items():
+        for result in results:
             for checkpoint in result["checkpoints"]:
-                sets[turn["turn_deg"]] += 1
+                sets[turn_deg] += 1
                 pans = checkpoint["pans_deg"]
                 arc = checkpoint.get("arc")
                 for novel in checkpoint["novel_views"]:
                     pan = novel["pan_deg"]
                     distance = min(abs(wrap(pan - p)) for p in pans)
-                    on = arc is not None and lo <= wrap(pan - arc["scene_turn_deg"]) <= hi
-                    key = (turn["turn_deg"], round(pan))
+                    on = arc is not None and lo <= wrap(pan + arc["scene_turn_deg"]) <= hi
+                    key = (turn_deg, round(pan))
                     samples[key].append((distance, on, novel["masked_psnr_db"]))
     bins = collections.defaultdict(list)
     for (turn, _), views in samples.items():
