@@ -384,12 +384,12 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     std::fs::create_dir_all(&sessions)
         .with_context(|| format!("creating {}", sessions.display()))?;
     let strategies = [Strategy::Active, Strategy::Uniform];
-    let bar = indicatif::ProgressBar::new_spinner();
+    let mut reporter = crate::reporter::Reporter::new(indicatif::ProgressBar::new_spinner());
     let results = aibr::evaluate(&a.scene, &strategies, &params, &sessions, &mut |m| {
-        bar.set_message(m);
-        bar.tick();
+        reporter.message(m);
+        reporter.bar().tick();
     })?;
-    bar.set_message("writing the report");
+    reporter.message("writing the report".into());
 
     let range = aibr::Turntable::range(&rig);
     let range_deg = (range.min().degrees(), range.max().degrees());
@@ -565,7 +565,7 @@ window.addEventListener('load', () => {{
     );
     let index = a.out.join("index.html");
     write(&index, html.as_bytes())?;
-    bar.finish_and_clear();
+    reporter.finish();
 
     crate::print_eval_table(&results, None);
     println!("report: {} ({elapsed:.0} s)", index.display());

@@ -9,6 +9,7 @@ use anyhow::{Context, Result, bail};
 
 mod calibrate;
 mod demo;
+mod reporter;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -1095,20 +1096,21 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
         "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} views {msg}",
     )?);
     bar.set_position(session.file().views.len() as u64);
+    let mut reporter = reporter::Reporter::new(bar);
     let report = aibr::capture(rig, &mut session, &params, &mut |p| match p {
         Progress::Captured { count, pan, .. } => {
-            bar.set_position(count as u64);
-            bar.set_message(format!("captured at {:.2} deg", pan.degrees()));
+            reporter.bar().set_position(count as u64);
+            reporter.message(format!("captured at {:.2} deg", pan.degrees()));
         }
         Progress::Reconstructed { views, algorithm } => {
-            bar.set_message(format!("{algorithm} from {views} views"))
+            reporter.message(format!("{algorithm} from {views} views"))
         }
-        Progress::Planned { pan, score } => bar.set_message(format!(
+        Progress::Planned { pan, score } => reporter.message(format!(
             "next at {:.2} deg (arc score {score:.0})",
             pan.degrees()
         )),
     })?;
-    bar.finish_and_clear();
+    reporter.finish();
     if a.json {
         let views: Vec<_> = report
             .pans
@@ -1245,8 +1247,8 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
         render: a.refine.render_params(),
     };
     // No folder is made here: the sessions make theirs, so a refused evaluation leaves none.
-    let bar = ProgressBar::new_spinner();
-    let mut progress = |m: String| bar.set_message(m);
+    let mut reporter = reporter::Reporter::new(ProgressBar::new_spinner());
+    let mut progress = |m: String| reporter.message(format!("{spec}: {m}"));
     let results = match &on {
         EvalOn::Sim(rig, name) => aibr::evaluate_rig(
             rig.as_ref(),
@@ -1261,7 +1263,7 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
             aibr::evaluate_rig(rig, name, spec, &strategies, &params, work, &mut progress)?
         }
     };
-    bar.finish_and_clear();
+    reporter.finish();
     Ok(results)
 }
 
@@ -1797,16 +1799,17 @@ fn render(a: RenderArgs) -> Result<()> {
     bar.set_style(ProgressStyle::with_template(
         "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} frames {msg}",
     )?);
+    let mut reporter = reporter::Reporter::new(bar);
     let mut times = Vec::with_capacity(targets.len());
     for (pan, file) in &targets {
         let start = std::time::Instant::now();
         renderer.render_into(&calibration.camera_at(*pan), &mut view)?;
         times.push(start.elapsed().as_secs_f64());
         png(file, &view.rgb)?;
-        bar.set_message(format!("{:.2} deg", pan.degrees()));
-        bar.inc(1);
+        reporter.bar().inc(1);
+        reporter.message(format!("{:.2} deg", pan.degrees()));
     }
-    bar.finish_and_clear();
+    reporter.finish();
     if a.sweep.is_some() {
         times.sort_by(f64::total_cmp);
         let median = times.get(times.len() / 2).copied().unwrap_or(0.0);

@@ -754,6 +754,14 @@ fn small_eval_json(
         .arg(work)
         .output()?;
     assert_success(&out);
+    // Standard error is not a terminal here, so progress comes as log lines (the first at
+    // least), each with the time since the start and the rig.
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.lines()
+            .any(|l| l.starts_with("[0:") && l.contains("] sim:lambertian: ")),
+        "no progress line in {err:?}"
+    );
     Ok(serde_json::from_slice(&out.stdout)?)
 }
 
