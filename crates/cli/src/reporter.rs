@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use indicatif::ProgressBar;
 
 /// How often a run whose standard error is not a terminal writes a progress line.
-pub(crate) const LOG_EVERY: Duration = Duration::from_secs(30);
+const LOG_EVERY: Duration = Duration::from_secs(30);
 
 /// Reports progress messages. On a terminal they go to `bar` (a spinner or a bar, styled by
 /// its maker). Where standard error is not a terminal (a run in the background writing a log)
@@ -14,6 +14,9 @@ pub(crate) const LOG_EVERY: Duration = Duration::from_secs(30);
 /// an hour's evaluation leaves a log of how far it got without a line for every step.
 pub(crate) struct Reporter {
     bar: ProgressBar,
+    /// Whether the bar draws nothing (standard error is not a terminal), asked once: it does
+    /// not change during a run, and asking is a system call.
+    hidden: bool,
     start: Instant,
     every: Duration,
     last: Option<Instant>,
@@ -28,6 +31,7 @@ impl Reporter {
     /// Reports through `bar`, or in lines at most every `every` when it is hidden.
     pub(crate) fn every(bar: ProgressBar, every: Duration) -> Self {
         Reporter {
+            hidden: bar.is_hidden(),
             bar,
             start: Instant::now(),
             every,
@@ -42,7 +46,7 @@ impl Reporter {
 
     /// Shows `message`.
     pub(crate) fn message(&mut self, message: String) {
-        if self.bar.is_hidden() {
+        if self.hidden {
             if let Some(line) = self.line(&message, Instant::now()) {
                 eprintln!("{line}");
             }
