@@ -67,6 +67,17 @@ pub enum Error {
         /// The value asked for.
         given: String,
     },
+    /// A new session was asked for in a folder that holds other files, which its views, masks
+    /// and outputs could overwrite.
+    #[error(
+        "{path} is not empty ({entry} is there) and holds no session: capture into a new or empty folder"
+    )]
+    FolderNotEmpty {
+        /// The folder.
+        path: PathBuf,
+        /// One of its entries.
+        entry: String,
+    },
     /// A session exists where a new one was asked for.
     #[error("{0} already holds a session: pass --resume to continue it, or choose another folder")]
     SessionExists(PathBuf),

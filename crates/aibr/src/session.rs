@@ -273,6 +273,33 @@ fn io<'a>(action: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -
     }
 }
 
+/// Refuses a folder with entries other than empty `views` and `masks` folders (a missing
+/// folder is empty).
+fn check_empty(dir: &Path) -> Result<()> {
+    let entries = match std::fs::read_dir(dir) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        other => other.map_err(io("reading", dir))?,
+    };
+    for entry in entries {
+        let entry = entry.map_err(io("reading", dir))?;
+        let name = entry.file_name();
+        let path = entry.path();
+        let left_by_create = (name == "views" || name == "masks")
+            && path.is_dir()
+            && std::fs::read_dir(&path)
+                .map_err(io("reading", &path))?
+                .next()
+                .is_none();
+        if !left_by_create {
+            return Err(Error::FolderNotEmpty {
+                path: dir.to_owned(),
+                entry: name.to_string_lossy().into_owned(),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file beside it, fsync, rename, fsync of
 /// the folder. The old file (if any) stays intact until the rename, and a write that fails
 /// (a full disk, say) removes its temporary file.
@@ -317,11 +344,14 @@ where
 
 impl Session {
     /// Creates a session in `dir` (created if missing); refuses a folder that already holds
-    /// one.
+    /// one ([`Error::SessionExists`]) or holds anything else ([`Error::FolderNotEmpty`]: the
+    /// session's views, masks and outputs could overwrite it), except the empty `views` and
+    /// `masks` folders a create that failed before writing `session.json` leaves.
     pub fn create(dir: &Path, file: SessionFile) -> Result<Self> {
         if dir.join("session.json").exists() {
             return Err(Error::SessionExists(dir.to_owned()));
         }
+        check_empty(dir)?;
         for sub in ["", "views", "masks"] {
             let d = dir.join(sub);
             std::fs::create_dir_all(&d).map_err(io("creating", &d))?;
@@ -761,6 +791,41 @@ mod tests {
         let views = Session::open(&dir)?.load_views()?;
         assert_eq!(views.len(), 2);
         assert_eq!((views[1].record.index, &views[1].image), (1, &grey(30)));
+        let _ = std::fs::remove_dir_all(&dir);
+        Ok(())
+    }
+
+    /// A new session is refused in a folder holding other files (a report, a view of
+    /// something else), naming one, and the folder is left as it was; the empty `views` and
+    /// `masks` folders of a create that failed before its record are no obstacle.
+    #[test]
+    fn a_new_session_leaves_a_folder_with_other_files_alone() -> Result<()> {
+        let dir =
+            std::env::temp_dir().join(format!("aibr-session-occupied-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let other = dir.join("views/0000.png");
+        std::fs::create_dir_all(dir.join("views")).map_err(io("creating", &dir))?;
+        std::fs::write(&other, b"not a view of this session").map_err(io("writing", &other))?;
+        let new = || {
+            let mut f = file([500.0, 500.0, 320.0, 240.0, 0.0, 0.0], &[]);
+            f.calibration.size = [8, 6];
+            Session::create(&dir, f)
+        };
+        match new() {
+            Err(Error::FolderNotEmpty { path, entry }) => {
+                assert_eq!((path, entry.as_str()), (dir.clone(), "views"));
+            }
+            other => panic!("expected FolderNotEmpty, got {other:?}"),
+        }
+        assert!(!dir.join("session.json").exists());
+        assert!(!dir.join("masks").exists());
+        let kept = std::fs::read(&other).map_err(io("reading", &other))?;
+        assert_eq!(kept, b"not a view of this session");
+        // What an interrupted create leaves: empty views and masks folders.
+        std::fs::remove_file(&other).map_err(io("removing", &other))?;
+        std::fs::create_dir_all(dir.join("masks")).map_err(io("creating", &dir))?;
+        new()?;
+        assert!(dir.join("session.json").is_file());
         let _ = std::fs::remove_dir_all(&dir);
         Ok(())
     }
