@@ -125,6 +125,10 @@ impl PanRange {
         Ok(PanRange { min, max })
     }
 
+    /// How many turns away from the range [`PanRange::normalize`] still brings an angle
+    /// back: a thousand, where a double resolves an angle to about 1e-12 radians.
+    pub const MAX_TURNS: f64 = 1000.0;
+
     /// A full turn, `[-pi, pi]`.
     pub fn full_turn() -> Self {
         PanRange {
@@ -156,9 +160,12 @@ impl PanRange {
     /// The representative of `angle` (modulo one turn) inside the range, if any.
     ///
     /// `normalize(370 deg)` in a `[0, 360]` range is 10 deg; in a `[-159, 159]` range,
-    /// 200 deg wraps to -160 deg, which is outside, so the answer is `None`.
+    /// 200 deg wraps to -160 deg, which is outside, so the answer is `None`. Also `None` for
+    /// an angle that is not finite or lies more than [`PanRange::MAX_TURNS`] turns from the
+    /// range, where a double no longer places it within a turn (`1e300` degrees would
+    /// otherwise come out as some arbitrary direction).
     pub fn normalize(&self, angle: Angle) -> Option<Angle> {
-        if !angle.0.is_finite() {
+        if !angle.0.is_finite() || (angle.0 - self.min.0).abs() > Self::MAX_TURNS * TAU {
             return None;
         }
         let k = ((angle.0 - self.min.0) / TAU).floor();
@@ -199,6 +206,23 @@ mod tests {
         assert!((Angle::from_degrees(-180.0).wrapped().degrees() - 180.0).abs() < 1e-9);
         let d = Angle::from_degrees(10.0).wrapped_difference(Angle::from_degrees(350.0));
         assert!((d.degrees() - 20.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn angles_too_many_turns_away_are_not_placed() -> Result<()> {
+        let ptu = PanRange::new(Angle::from_degrees(-159.0), Angle::from_degrees(159.0))?;
+        let turns = |n: f64| Angle::from_degrees(40.0 + 360.0 * n);
+        let back = ptu.normalize(turns(PanRange::MAX_TURNS - 1.0));
+        assert!(
+            back.is_some_and(|a| (a.degrees() - 40.0).abs() < 1e-6),
+            "{back:?}"
+        );
+        assert!(ptu.normalize(turns(-(PanRange::MAX_TURNS - 1.0))).is_some());
+        for far in [PanRange::MAX_TURNS + 1.0, -PanRange::MAX_TURNS - 1.0, 1e297] {
+            assert_eq!(ptu.normalize(turns(far)), None, "{far} turns");
+        }
+        assert!(ptu.check(Angle::from_degrees(1e300)).is_err());
+        Ok(())
     }
 
     #[test]
