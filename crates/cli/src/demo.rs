@@ -20,7 +20,9 @@ pub(crate) struct DemoArgs {
     /// The catalogue scene.
     #[arg(long, default_value = "mirror")]
     scene: String,
-    /// The report folder (its sessions are kept and reused by a rerun).
+    /// The report folder: a new or empty one, or an earlier report (its sessions are kept
+    /// and reused by a rerun). A folder holding other files is refused, since the report's
+    /// would overwrite them.
     #[arg(long, default_value = "aibr-demo")]
     out: PathBuf,
     /// A smaller run (6 -> 12 views, coarse grids) that finishes in seconds: for tests.
@@ -375,9 +377,44 @@ fn png(path: &Path, img: &RgbImage) -> Result<()> {
     write(path, &out.into_inner())
 }
 
+/// The start of the report page's title, by which a folder is known as a demo report.
+const TITLE: &str = "<title>aibr demo: ";
+
+/// Refuses a report folder that holds anything but an earlier report: the report's files
+/// (`index.html`, `model.ply`, the plots and renders) would overwrite files of the same names.
+/// A folder is an earlier report, finished or not, when it holds the demo's `sessions` folder
+/// or an `index.html` the demo wrote.
+fn check_out(out: &Path) -> Result<()> {
+    let mut entries = match std::fs::read_dir(out) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        other => other.with_context(|| format!("reading --out {}", out.display()))?,
+    };
+    let Some(first) = entries.next() else {
+        return Ok(());
+    };
+    let first = first.with_context(|| format!("reading --out {}", out.display()))?;
+    if out.join("sessions").is_dir() {
+        return Ok(());
+    }
+    let index = out.join("index.html");
+    if index.is_file() {
+        let page = std::fs::read(&index).with_context(|| format!("reading {}", index.display()))?;
+        if page.windows(TITLE.len()).any(|w| w == TITLE.as_bytes()) {
+            return Ok(());
+        }
+    }
+    bail!(
+        "--out {} is not empty ({} is there) and is not an aibr demo report, whose files would \
+         overwrite it: choose a new or empty folder",
+        out.display(),
+        first.file_name().to_string_lossy()
+    )
+}
+
 /// Runs the demo and writes the report; returns the path of `index.html`.
 pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     let start = Instant::now();
+    check_out(&a.out)?;
     let rig = SimRig::new(&a.scene).with_context(|| format!("--scene {:?}", a.scene))?;
     let Setup { params, model_grid } = setup(a.quick);
     let sessions = a.out.join("sessions");
@@ -514,7 +551,7 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     let elapsed = start.elapsed().as_secs_f64();
     let html = format!(
         r#"<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>aibr demo: {scene}</title>
+<html lang="en"><head><meta charset="utf-8">{TITLE}{scene}</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}} .row{{display:flex;flex-wrap:wrap;gap:8px}} figure{{margin:0}} img{{max-width:200px}} .plots img{{max-width:100%}} table{{border-collapse:collapse}} td,th{{border:1px solid #aaa;padding:3px 8px;text-align:right}}</style></head>
 <body>
 <h1>Active against uniform capture: <code>{scene}</code></h1>

@@ -41,6 +41,43 @@ fn attributes(html: &str, attr: &str) -> Vec<String> {
         .collect()
 }
 
+/// A folder that is not a demo report is refused before any work, what it holds left as it
+/// was (`--out .` in a project would otherwise lose its `index.html`); a report folder is
+/// written again, its sessions reused.
+#[test]
+fn the_demo_writes_only_into_its_own_report_folder() -> TestResult {
+    let out = temp("demo-occupied");
+    std::fs::create_dir_all(&out)?;
+    let page = out.join("index.html");
+    let theirs = "<html><title>someone else's page</title></html>";
+    std::fs::write(&page, theirs)?;
+    let demo = || aibr().args(["demo", "--quick", "--out"]).arg(&out).output();
+    let refused = demo()?;
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("index.html is there") && stderr.contains("not an aibr demo report"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&page)?, theirs);
+    assert!(!out.join("sessions").exists());
+
+    std::fs::remove_file(&page)?;
+    assert_success(&demo()?);
+    let first = std::fs::read_to_string(&page)?;
+    // Again into the report it wrote: the same report from the same sessions.
+    assert_success(&demo()?);
+    let again = std::fs::read_to_string(&page)?;
+    let figures = |html: &str| {
+        let table = html.split("<table").nth(1)?;
+        table.split("</table>").next().map(str::to_owned)
+    };
+    assert_eq!(figures(&again), figures(&first));
+    assert!(figures(&first).is_some());
+    let _ = std::fs::remove_dir_all(&out);
+    Ok(())
+}
+
 #[test]
 fn the_demo_report_loads_in_a_browser() -> TestResult {
     let out = temp("demo");
