@@ -529,13 +529,14 @@ struct RenderArgs {
     /// Every angle must lie inside the turntable's range, and no frame may exist already.
     #[arg(long, allow_hyphen_values = true, value_parser = parse_sweep)]
     sweep: Option<Sweep>,
-    /// The output image (PNG); with --sweep, the folder for the frames (made if missing).
+    /// The output image (PNG, a name ending in .png); with --sweep, the folder for the frames
+    /// (made if missing).
     #[arg(short, long)]
     output: PathBuf,
-    /// Also write the depth as OpenEXR (one view only).
+    /// Also write the depth as OpenEXR (a name ending in .exr; one view only).
     #[arg(long, conflicts_with = "sweep")]
     depth: Option<PathBuf>,
-    /// Also write how each pixel was made (PNG; one view only): white where the model's
+    /// Also write how each pixel was made (PNG, a name ending in .png; one view only): white where the model's
     /// surface was met, grey where the focal surface stood in, black where no capture sees
     /// the point.
     #[arg(long, conflicts_with = "sweep")]
@@ -726,13 +727,13 @@ enum SceneCommand {
         /// The pan angle, degrees.
         #[arg(long, allow_hyphen_values = true)]
         pan: f64,
-        /// The output image (PNG).
+        /// The output image (PNG, a name ending in .png).
         #[arg(short, long)]
         output: PathBuf,
-        /// Also write the depth as OpenEXR.
+        /// Also write the depth as OpenEXR (a name ending in .exr).
         #[arg(long)]
         depth: Option<PathBuf>,
-        /// Also write the object mask (PNG).
+        /// Also write the object mask (PNG, a name ending in .png).
         #[arg(long)]
         mask: Option<PathBuf>,
     },
@@ -946,6 +947,20 @@ fn ptu(a: PtuArgs) -> Result<()> {
         PtuAction::Emulate { .. } => {}
     }
     Ok(())
+}
+
+/// Refuses an output file whose name says another format than the one written into it
+/// (`--depth view.png` would hold OpenEXR): `ext` is the format's extension, compared without
+/// case. Checked before the work, so a long render does not end in a misnamed file.
+fn check_extension(flag: &str, path: &Path, ext: &str, format: &str) -> Result<()> {
+    let given = path.extension().and_then(|e| e.to_str());
+    if given.is_some_and(|g| g.eq_ignore_ascii_case(ext)) {
+        return Ok(());
+    }
+    bail!(
+        "{flag} {}: this is written as {format}; give the file name the .{ext} extension",
+        path.display()
+    )
 }
 
 fn png(path: &Path, img: &impl PngEncodable) -> Result<()> {
@@ -1754,6 +1769,15 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
 }
 
 fn render(a: RenderArgs) -> Result<()> {
+    if a.sweep.is_none() {
+        check_extension("-o", &a.output, "png", "PNG")?;
+    }
+    if let Some(d) = &a.depth {
+        check_extension("--depth", d, "exr", "OpenEXR")?;
+    }
+    if let Some(c) = &a.coverage {
+        check_extension("--coverage", c, "png", "PNG")?;
+    }
     let session = Session::open(&a.session)?;
     // Every angle is checked, and no frame may be overwritten, before the (slow) model. Each
     // target is a pan angle and the PNG it goes to.
@@ -1847,6 +1871,13 @@ fn scene(c: SceneCommand) -> Result<()> {
             depth,
             mask,
         } => {
+            check_extension("-o", &output, "png", "PNG")?;
+            if let Some(d) = &depth {
+                check_extension("--depth", d, "exr", "OpenEXR")?;
+            }
+            if let Some(m) = &mask {
+                check_extension("--mask", m, "png", "PNG")?;
+            }
             let s = aibr::scene::catalogue::by_name(&scene)?;
             let camera = s.camera(Angle::from_degrees(pan))?;
             let frame = s.render(&camera, &aibr::scene::RenderOptions::default())?;

@@ -539,6 +539,27 @@ fn scene_render_writes_image_depth_and_mask() -> TestResult {
     assert_success(&out);
     let mask = image::open(dir.join("mask.png"))?.to_luma8();
     assert!(mask.pixels().any(|p| p.0[0] == 255) && mask.pixels().any(|p| p.0[0] == 0));
+    // An output named for another format than it would hold is refused before rendering,
+    // naming the option, and nothing is written.
+    for (flag, name, format) in [
+        ("--depth", "d.png", "OpenEXR"),
+        ("--mask", "mask.exr", "PNG"),
+        ("-o", "m.jpg", "PNG"),
+    ] {
+        let mut render = aibr();
+        render.args(["scene", "render", "mirror", "--pan", "90"]);
+        if flag != "-o" {
+            render.arg("-o").arg(dir.join("ok.png"));
+        }
+        let out = render.arg(flag).arg(dir.join(name)).output()?;
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{flag} {name}: {stderr}");
+        assert!(
+            stderr.contains(flag) && stderr.contains(name) && stderr.contains(format),
+            "{stderr}"
+        );
+        assert!(!dir.join(name).exists() && !dir.join("ok.png").exists());
+    }
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
