@@ -536,9 +536,9 @@ struct RenderArgs {
     /// Also write the depth as OpenEXR (a name ending in .exr; one view only).
     #[arg(long, conflicts_with = "sweep")]
     depth: Option<PathBuf>,
-    /// Also write how each pixel was made (PNG, a name ending in .png; one view only): white where the model's
-    /// surface was met, grey where the focal surface stood in, black where no capture sees
-    /// the point.
+    /// Also write how each pixel was made (PNG, a name ending in .png; one view only): white
+    /// where the model's surface was met, grey where the focal surface stood in, black where
+    /// no capture sees the point.
     #[arg(long, conflicts_with = "sweep")]
     coverage: Option<PathBuf>,
     /// Voxels along the longest edge of the model used.
