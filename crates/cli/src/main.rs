@@ -918,10 +918,13 @@ fn ptu(a: PtuArgs) -> Result<()> {
                 bail!("move {degrees}: not an angle");
             }
             let angle = Radians::from_degrees(degrees);
+            // The unit's refusals speak in steps: say what was asked in degrees too.
             if relative {
-                unit.move_by(Axis::Pan, angle)?;
+                unit.move_by(Axis::Pan, angle)
+                    .with_context(|| format!("move by {degrees} deg"))?;
             } else {
-                unit.move_to(Axis::Pan, angle)?;
+                unit.move_to(Axis::Pan, angle)
+                    .with_context(|| format!("move to {degrees} deg"))?;
             }
             report(&mut unit, a.json)?;
         }

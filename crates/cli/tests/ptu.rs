@@ -82,7 +82,7 @@ fn info_move_limits_home_halt() -> TestResult {
     assert!(!refused.status.success());
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(
-        err.contains("Maximum allowable Pan position is 3090"),
+        err.contains("move to 160 deg") && err.contains("Maximum allowable Pan position is 3090"),
         "{err}"
     );
     assert!(String::from_utf8_lossy(&ptu(&unit, &["limits", "off"])?.stdout).contains("off"));
