@@ -42,6 +42,16 @@ def object_arc(arg):
     return lo, hi
 
 
+def wrap(degrees):
+    """`degrees` wrapped into [-180, 180)."""
+    return (degrees + 180.0) % 360.0 - 180.0
+
+
+def on_arc(pan, turn, lo, hi):
+    """Whether the camera's pan `pan` sees the object, turned by `turn`, from its arc lo:hi."""
+    return lo <= wrap(pan + turn) <= hi
+
+
 def strategy(results, name, path):
     for r in results:
         if r["strategy"] == name:
@@ -70,10 +80,6 @@ def main():
     if missing:
         sys.exit(f"{uniform_path}: no turns {missing}")
 
-    def on_arc(pan, turn):
-        p = (pan + turn + 180.0) % 360.0 - 180.0
-        return lo <= p <= hi
-
     rows = {}
     for turn in sorted(new):
         a = strategy(new[turn], "active", active_path)
@@ -89,8 +95,8 @@ def main():
             common = pans(ca) & pans(cu)
             psnr = lambda c, keep: mean([v["masked_psnr_db"] for v in c["novel_views"] if keep(v)])
             both = lambda c: psnr(c, lambda v: round(v["pan_deg"], 3) in common)
-            side = lambda c, s: psnr(c, lambda v: on_arc(v["pan_deg"], turn) == s)
-            there = lambda c: sum(1 for p in c["pans_deg"] if on_arc(p, turn))
+            side = lambda c, s: psnr(c, lambda v: on_arc(v["pan_deg"], turn, lo, hi) == s)
+            there = lambda c: sum(1 for p in c["pans_deg"] if on_arc(p, turn, lo, hi))
             r = rows.setdefault(n, {})
             for key, value in [
                 ("lead", ca["mean_masked_psnr_db"] - cu["mean_masked_psnr_db"]),

@@ -18,11 +18,7 @@ worse with every degree.
 import collections
 import sys
 
-from compare_turns import load_turns, object_arc
-
-
-def wrap(degrees):
-    return (degrees + 180.0) % 360.0 - 180.0
+from compare_turns import load_turns, object_arc, on_arc, wrap
 
 
 def main():
@@ -42,7 +38,7 @@ def main():
                 for novel in checkpoint["novel_views"]:
                     pan = novel["pan_deg"]
                     distance = min(abs(wrap(pan - p)) for p in pans)
-                    on = arc is not None and lo <= wrap(pan + arc["scene_turn_deg"]) <= hi
+                    on = arc is not None and on_arc(pan, arc["scene_turn_deg"], lo, hi)
                     key = (turn_deg, round(pan))
                     samples[key].append((distance, on, novel["masked_psnr_db"]))
     bins = collections.defaultdict(list)
