@@ -952,18 +952,27 @@ fn ptu(a: PtuArgs) -> Result<()> {
     Ok(())
 }
 
+/// An image format the command line writes: its extension and its name.
+type Format = (&'static str, &'static str);
+const PNG: Format = ("png", "PNG");
+const EXR: Format = ("exr", "OpenEXR");
+
 /// Refuses an output file whose name says another format than the one written into it
-/// (`--depth view.png` would hold OpenEXR): `ext` is the format's extension, compared without
-/// case. Checked before the work, so a long render does not end in a misnamed file.
-fn check_extension(flag: &str, path: &Path, ext: &str, format: &str) -> Result<()> {
-    let given = path.extension().and_then(|e| e.to_str());
-    if given.is_some_and(|g| g.eq_ignore_ascii_case(ext)) {
-        return Ok(());
+/// (`--depth view.png` would hold OpenEXR), for each given output: its option, its path, and
+/// the format written there. Extensions are compared without case. Checked before the work,
+/// so a long render does not end in a misnamed file.
+fn check_extensions(outputs: &[(&str, Option<&PathBuf>, Format)]) -> Result<()> {
+    for &(flag, path, (ext, format)) in outputs {
+        let Some(path) = path else { continue };
+        let given = path.extension().and_then(|e| e.to_str());
+        if !given.is_some_and(|g| g.eq_ignore_ascii_case(ext)) {
+            bail!(
+                "{flag} {}: this is written as {format}; give the file name the .{ext} extension",
+                path.display()
+            );
+        }
     }
-    bail!(
-        "{flag} {}: this is written as {format}; give the file name the .{ext} extension",
-        path.display()
-    )
+    Ok(())
 }
 
 fn png(path: &Path, img: &impl PngEncodable) -> Result<()> {
@@ -1772,15 +1781,11 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
 }
 
 fn render(a: RenderArgs) -> Result<()> {
-    if a.sweep.is_none() {
-        check_extension("-o", &a.output, "png", "PNG")?;
-    }
-    if let Some(d) = &a.depth {
-        check_extension("--depth", d, "exr", "OpenEXR")?;
-    }
-    if let Some(c) = &a.coverage {
-        check_extension("--coverage", c, "png", "PNG")?;
-    }
+    check_extensions(&[
+        ("-o", a.sweep.is_none().then_some(&a.output), PNG),
+        ("--depth", a.depth.as_ref(), EXR),
+        ("--coverage", a.coverage.as_ref(), PNG),
+    ])?;
     let session = Session::open(&a.session)?;
     // Every angle is checked, and no frame may be overwritten, before the (slow) model. Each
     // target is a pan angle and the PNG it goes to.
@@ -1874,13 +1879,11 @@ fn scene(c: SceneCommand) -> Result<()> {
             depth,
             mask,
         } => {
-            check_extension("-o", &output, "png", "PNG")?;
-            if let Some(d) = &depth {
-                check_extension("--depth", d, "exr", "OpenEXR")?;
-            }
-            if let Some(m) = &mask {
-                check_extension("--mask", m, "png", "PNG")?;
-            }
+            check_extensions(&[
+                ("-o", Some(&output), PNG),
+                ("--depth", depth.as_ref(), EXR),
+                ("--mask", mask.as_ref(), PNG),
+            ])?;
             let s = aibr::scene::catalogue::by_name(&scene)?;
             let camera = s.camera(Angle::from_degrees(pan))?;
             let frame = s.render(&camera, &aibr::scene::RenderOptions::default())?;
