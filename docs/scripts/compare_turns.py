@@ -52,6 +52,18 @@ def on_arc(pan, turn, lo, hi):
     return lo <= wrap(pan + turn) <= hi
 
 
+def arc_psnr(checkpoint, turn, lo, hi, there):
+    """The mean masked PSNR of a checkpoint's novel views on the object's arc lo:hi (`there`)
+    or off it, the object turned by `turn`."""
+    return mean(
+        [
+            v["masked_psnr_db"]
+            for v in checkpoint["novel_views"]
+            if on_arc(v["pan_deg"], turn, lo, hi) == there
+        ]
+    )
+
+
 def strategy(results, name, path):
     for r in results:
         if r["strategy"] == name:
@@ -93,9 +105,10 @@ def main():
                 continue  # the initial views: the same for both
             pans = lambda c: {round(v["pan_deg"], 3) for v in c["novel_views"]}
             common = pans(ca) & pans(cu)
-            psnr = lambda c, keep: mean([v["masked_psnr_db"] for v in c["novel_views"] if keep(v)])
-            both = lambda c: psnr(c, lambda v: round(v["pan_deg"], 3) in common)
-            side = lambda c, s: psnr(c, lambda v: on_arc(v["pan_deg"], turn, lo, hi) == s)
+            both = lambda c: mean(
+                [v["masked_psnr_db"] for v in c["novel_views"] if round(v["pan_deg"], 3) in common]
+            )
+            side = lambda c, s: arc_psnr(c, turn, lo, hi, s)
             there = lambda c: sum(1 for p in c["pans_deg"] if on_arc(p, turn, lo, hi))
             r = rows.setdefault(n, {})
             for key, value in [

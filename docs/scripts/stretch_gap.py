@@ -14,9 +14,10 @@ Given several files, it also says whether they hold the same view sets turn by t
 `aibr eval --model ...` on one `--work` folder render the same captures from different
 geometry, and only then does a difference between the files measure the geometry alone.
 """
+import argparse
 import sys
 
-from compare_turns import load_turns, mean, object_arc, on_arc, stderr, strategy
+from compare_turns import arc_psnr, load_turns, mean, object_arc, stderr, strategy
 
 
 def checkpoint(results, name, views, path, turn):
@@ -27,49 +28,30 @@ def checkpoint(results, name, views, path, turn):
     sys.exit(f"{path}: turn {turn:g}: {name} has no checkpoint at {views} views")
 
 
-def options(argv):
-    """The files, the view counts (active, uniform) and the arc of a command line."""
-    paths, views, arc = [], (24, 48), None
-    args = iter(argv)
-    for a in args:
-        if a in ("--views", "--arc"):
-            value = next(args, None)
-            if value is None:
-                sys.exit(f"{a} needs a value\n{__doc__}")
-            if a == "--arc":
-                arc = value
-                continue
-            try:
-                views = tuple(int(x) for x in value.split(":"))
-            except ValueError:
-                views = ()
-            if len(views) != 2:
-                sys.exit(f"--views {value!r}: expected A:U, two view counts")
-        elif a.startswith("--"):
-            sys.exit(f"unknown option {a}\n{__doc__}")
-        else:
-            paths.append(a)
-    if not paths:
-        sys.exit(__doc__)
-    return paths, views, object_arc(arc)
+def view_counts(value):
+    """`A:U`, the active and uniform view counts."""
+    try:
+        a, u = (int(x) for x in value.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{value!r}: expected A:U, two view counts")
+    return a, u
 
 
 def main():
-    paths, (na, nu), (lo, hi) = options(sys.argv[1:])
+    parser = argparse.ArgumentParser(usage=__doc__)
+    parser.add_argument("runs", nargs="+")
+    parser.add_argument("--views", type=view_counts, default=(24, 48))
+    parser.add_argument("--arc")
+    args = parser.parse_args()
+    (na, nu), (lo, hi) = args.views, object_arc(args.arc)
     sets = {}
-    for path in paths:
+    for path in args.runs:
         turns = load_turns(path)
         rows = []
         for turn in sorted(turns):
             a = checkpoint(turns[turn], "active", na, path, turn)
             u = checkpoint(turns[turn], "uniform", nu, path, turn)
-            side = lambda c, there: mean(
-                [
-                    v["masked_psnr_db"]
-                    for v in c["novel_views"]
-                    if on_arc(v["pan_deg"], turn, lo, hi) == there
-                ]
-            )
+            side = lambda c, there: arc_psnr(c, turn, lo, hi, there)
             rows.append(
                 (
                     turn,
@@ -98,16 +80,16 @@ def main():
             f"| {f(gap(1, 2))} ({ahead}/{len(rows)} level or ahead) | {f(gap(3, 4))} | {f(gap(5, 6))} |"
         )
         print()
-    if len(paths) > 1:
-        first = sets[paths[0]]
-        for path in paths[1:]:
-            differ = [t for t in first if sets[path].get(t) != first[t]]
-            if set(sets[path]) != set(first):
-                print(f"{path}: other turns than {paths[0]}")
-            elif differ:
-                print(f"{path}: other view sets than {paths[0]} at turns {', '.join(f'{t:g}' for t in differ)}")
-            else:
-                print(f"{path}: the same view sets as {paths[0]} at every turn")
+    first = sets[args.runs[0]]
+    for path in args.runs[1:]:
+        differ = [t for t in first if sets[path].get(t) != first[t]]
+        if set(sets[path]) != set(first):
+            print(f"{path}: other turns than {args.runs[0]}")
+        elif differ:
+            turns = ", ".join(f"{t:g}" for t in differ)
+            print(f"{path}: other view sets than {args.runs[0]} at turns {turns}")
+        else:
+            print(f"{path}: the same view sets as {args.runs[0]} at every turn")
 
 
 if __name__ == "__main__":
