@@ -130,7 +130,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let truth8 = truth.rgb8();
                 let p = metrics::psnr(&truth8, &view.rgb, Some(&truth.mask))?;
                 if edges {
-                    split.add(&truth8, &view.rgb, &truth.mask, &truth.depth);
+                    split.add(&truth8, &view, &truth.mask, &truth.depth);
                 }
                 ssim_sum += metrics::ssim(&truth8, &view.rgb, Some(&truth.mask))?;
                 geo += view.coverage_shares().0;
@@ -156,13 +156,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if edges {
         println!();
         println!(
-            "| scene | views | silhouette band: share of the squared error, pooled PSNR | interior: pooled PSNR | interior pixels off by more than 20 grey levels: share of the pixels, of the interior's squared error | interior within 2 of a fold or step of the true depth: share of the pixels, of the interior's squared error | interior away from them: pooled PSNR |"
+            "| scene | views | silhouette band: share of the squared error, pooled PSNR | interior: pooled PSNR | interior pixels off by more than 20 grey levels: share of the pixels, of the interior's squared error | interior within 2 of a fold or step of the true depth: share of the pixels, of the interior's squared error | interior away from them: pooled PSNR | outside the true silhouette, on the model: share of the image, pooled PSNR |"
         );
-        println!("|---|---|---|---|---|---|---|");
+        println!("|---|---|---|---|---|---|---|---|");
         for (name, n, s) in &splits {
             let total = s.band.error + s.interior.error;
             println!(
-                "| {name} | {n} | {:.0}%, {:.2} dB | {:.2} dB | {:.1}%, {:.0}% | {:.1}%, {:.0}% | {:.2} dB |",
+                "| {name} | {n} | {:.0}%, {:.2} dB | {:.2} dB | {:.1}%, {:.0}% | {:.1}%, {:.0}% | {:.2} dB | {:.2}%, {:.2} dB |",
                 100.0 * s.band.error / total,
                 s.band.psnr(),
                 s.interior.psnr(),
@@ -171,6 +171,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 100.0 * s.folds.pixels as f64 / s.interior.pixels as f64,
                 100.0 * s.folds.error / s.interior.error,
                 s.away_from_folds().psnr(),
+                100.0 * s.halo.pixels as f64 / s.pixels as f64,
+                s.halo.psnr(),
             );
         }
     }
@@ -187,8 +189,9 @@ const FOLD: f32 = 0.0005;
 /// Where the squared error of rendered views lies, summed over the views: in the band of
 /// pixels within 2 (4-connected steps) of the true silhouette's outside or the image's edge,
 /// or in the interior; the interior pixels off by more than 20 grey levels (RMS over red,
-/// green and blue); and those within 2 of a fold or step of the true depth ([`FOLD`]). Only
-/// pixels inside the true silhouette count, as in the masked PSNR.
+/// green and blue); and those within 2 of a fold or step of the true depth ([`FOLD`]). These
+/// are pixels inside the true silhouette, as the masked PSNR takes; outside it, the pixels
+/// the model covers all the same (its halo).
 #[derive(Debug, Default)]
 struct ErrorSplit {
     band: Tally,
@@ -196,6 +199,10 @@ struct ErrorSplit {
     large: Tally,
     /// Interior pixels within 2 of a fold or step of the true depth.
     folds: Tally,
+    /// Pixels outside the true silhouette that the model covers (`Coverage::Geometry`).
+    halo: Tally,
+    /// Every pixel of every view.
+    pixels: usize,
 }
 
 /// Pixels and their summed squared error (mean over the three channels).
@@ -230,11 +237,12 @@ impl ErrorSplit {
     fn add(
         &mut self,
         truth: &image::RgbImage,
-        render: &image::RgbImage,
+        view: &aibr_render::RenderedView,
         mask: &image::GrayImage,
         depth: &image::ImageBuffer<image::Luma<f32>, Vec<f32>>,
     ) {
         let (w, h) = (mask.width() as i64, mask.height() as i64);
+        self.pixels += (w * h) as usize;
         let inside = |x: i64, y: i64| {
             (0..w).contains(&x) && (0..h).contains(&y) && mask.get_pixel(x as u32, y as u32)[0] != 0
         };
@@ -263,14 +271,17 @@ impl ErrorSplit {
         };
         for (x, y, t) in truth.enumerate_pixels() {
             let (xi, yi) = (i64::from(x), i64::from(y));
-            if !inside(xi, yi) {
-                continue;
-            }
-            let r = render.get_pixel(x, y);
+            let r = view.rgb.get_pixel(x, y);
             let error = (0..3)
                 .map(|c| (f64::from(t[c]) - f64::from(r[c])).powi(2))
                 .sum::<f64>()
                 / 3.0;
+            if !inside(xi, yi) {
+                if view.coverage_at(x, y) == aibr_render::Coverage::Geometry {
+                    self.halo.add(error);
+                }
+                continue;
+            }
             let band = within_two(xi, yi).any(|(a, b)| !inside(a, b));
             if band {
                 self.band.add(error);
