@@ -20,7 +20,8 @@
 //! `EDGES=1` adds a second table that says where the squared error of the half-way views lies
 //! ([`ErrorSplit`]): in the band of 2 pixels inside the true silhouette or in the interior;
 //! how much of the interior's lies in the few pixels off by more than 20 grey levels, and how
-//! much near the folds and steps of the true surface (edges of faces, occlusion edges).
+//! much near the folds and steps of the true surface (edges of faces, occlusion edges); and,
+//! where the masked PSNR does not look, the ring of 2 pixels outside the true silhouette.
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -156,7 +157,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if edges {
         println!();
         println!(
-            "| scene | views | silhouette band: share of the squared error, pooled PSNR | interior: pooled PSNR | interior pixels off by more than 20 grey levels: share of the pixels, of the interior's squared error | interior within 2 of a fold or step of the true depth: share of the pixels, of the interior's squared error | interior away from them: pooled PSNR | outside the true silhouette, on the model: share of the image, pooled PSNR |"
+            "| scene | views | silhouette band: share of the squared error, pooled PSNR | interior: pooled PSNR | interior pixels off by more than 20 grey levels: share of the pixels, of the interior's squared error | interior within 2 of a fold or step of the true depth: share of the pixels, of the interior's squared error | interior away from them: pooled PSNR | ring of 2 pixels outside the true silhouette: share of the image, pooled PSNR |"
         );
         println!("|---|---|---|---|---|---|---|---|");
         for (name, n, s) in &splits {
@@ -190,8 +191,8 @@ const FOLD: f32 = 0.0005;
 /// pixels within 2 (4-connected steps) of the true silhouette's outside or the image's edge,
 /// or in the interior; the interior pixels off by more than 20 grey levels (RMS over red,
 /// green and blue); and those within 2 of a fold or step of the true depth ([`FOLD`]). These
-/// are pixels inside the true silhouette, as the masked PSNR takes; outside it, the pixels
-/// the model covers all the same (its halo).
+/// are pixels inside the true silhouette, as the masked PSNR takes; outside it, the ring of
+/// pixels within 2 of it (the halo a model too fat paints).
 #[derive(Debug, Default)]
 struct ErrorSplit {
     band: Tally,
@@ -199,7 +200,8 @@ struct ErrorSplit {
     large: Tally,
     /// Interior pixels within 2 of a fold or step of the true depth.
     folds: Tally,
-    /// Pixels outside the true silhouette that the model covers (`Coverage::Geometry`).
+    /// The ring of pixels outside the true silhouette within 2 of it, where a model a voxel
+    /// too fat paints the object.
     halo: Tally,
     /// Every pixel of every view.
     pixels: usize,
@@ -277,7 +279,7 @@ impl ErrorSplit {
                 .sum::<f64>()
                 / 3.0;
             if !inside(xi, yi) {
-                if view.coverage_at(x, y) == aibr_render::Coverage::Geometry {
+                if within_two(xi, yi).any(|(a, b)| inside(a, b)) {
                     self.halo.add(error);
                 }
                 continue;
