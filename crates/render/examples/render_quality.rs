@@ -235,7 +235,7 @@ impl ErrorSplit {
         }
     }
 
-    /// Adds one view: `truth` and `render` of the same size, `mask` non-zero on the object.
+    /// Adds one view: `truth` and `view` of the same size, `mask` non-zero on the object.
     fn add(
         &mut self,
         truth: &image::RgbImage,
