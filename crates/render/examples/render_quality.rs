@@ -25,7 +25,7 @@
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
-use aibr_scene::{RenderOptions, catalogue};
+use aibr_scene::{Frame, RenderOptions, catalogue};
 use aibr_voxel::{ColoringParams, ColumnTest, Criterion, View, VoxelGrid, voxel_coloring};
 use image::GenericImage;
 
@@ -123,15 +123,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let renderer = Renderer::new(&model, sources, params)?;
             let (mut sum, mut worst, mut ssim_sum, mut geo, mut m) =
                 (0.0, f64::INFINITY, 0.0, 0.0, 0);
-            let mut split = ErrorSplit::default();
+            let mut split = edges.then(ErrorSplit::default);
             for (i, pair) in pans.windows(2).enumerate() {
                 let camera = scene.camera((pair[0] + pair[1]) * 0.5)?;
                 let truth = scene.render(&camera, &RenderOptions::default())?;
                 let view = renderer.render(&camera)?;
                 let truth8 = truth.rgb8();
                 let p = metrics::psnr(&truth8, &view.rgb, Some(&truth.mask))?;
-                if edges {
-                    split.add(&truth8, &view, &truth.mask, &truth.depth);
+                if let Some(split) = split.as_mut() {
+                    split.add(&truth, &truth8, &view);
                 }
                 ssim_sum += metrics::ssim(&truth8, &view.rgb, Some(&truth.mask))?;
                 geo += view.coverage_shares().0;
@@ -151,10 +151,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ssim_sum / m as f64,
                 100.0 * geo / m as f64
             );
-            splits.push((name.clone(), n, split));
+            splits.extend(split.map(|s| (name.clone(), n, s)));
         }
     }
-    if edges {
+    if !splits.is_empty() {
         println!();
         println!(
             "| scene | views | silhouette band: share of the squared error, pooled PSNR | interior: pooled PSNR | interior pixels off by more than 20 grey levels: share of the pixels, of the interior's squared error | interior within 2 of a fold or step of the true depth: share of the pixels, of the interior's squared error | interior away from them: pooled PSNR | ring of 2 pixels outside the true silhouette: share of the image, pooled PSNR |"
@@ -235,14 +235,10 @@ impl ErrorSplit {
         }
     }
 
-    /// Adds one view: `truth` and `view` of the same size, `mask` non-zero on the object.
-    fn add(
-        &mut self,
-        truth: &image::RgbImage,
-        view: &aibr_render::RenderedView,
-        mask: &image::GrayImage,
-        depth: &image::ImageBuffer<image::Luma<f32>, Vec<f32>>,
-    ) {
+    /// Adds one view: the ground truth `truth` (its colours quantised in `truth8`, its mask
+    /// and depth as the scene rendered them) and the render `view` of the same camera.
+    fn add(&mut self, truth: &Frame, truth8: &image::RgbImage, view: &aibr_render::RenderedView) {
+        let (mask, depth) = (&truth.mask, &truth.depth);
         let (w, h) = (mask.width() as i64, mask.height() as i64);
         self.pixels += (w * h) as usize;
         let inside = |x: i64, y: i64| {
@@ -271,7 +267,7 @@ impl ErrorSplit {
         let near_fold = |(a, b): (i64, i64)| {
             (0..w).contains(&a) && (0..h).contains(&b) && folds[(b * w + a) as usize]
         };
-        for (x, y, t) in truth.enumerate_pixels() {
+        for (x, y, t) in truth8.enumerate_pixels() {
             let (xi, yi) = (i64::from(x), i64::from(y));
             let r = view.rgb.get_pixel(x, y);
             let error = (0..3)
