@@ -220,9 +220,9 @@ impl Tally {
         self.error += error;
     }
 
-    /// The PSNR of the pooled mean squared error (peak 255).
+    /// The PSNR of the pooled mean squared error.
     fn psnr(&self) -> f64 {
-        10.0 * (255.0 * 255.0 * self.pixels as f64 / self.error).log10()
+        metrics::psnr_of_mse(self.error / self.pixels as f64)
     }
 }
 

@@ -52,8 +52,16 @@ pub fn psnr(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> Result<f64>
     Ok(psnr_of_mse(sum / n as f64))
 }
 
-/// The PSNR (dB, peak 255) of a mean squared error; infinity for none.
-fn psnr_of_mse(mse: f64) -> f64 {
+/// The PSNR (dB, peak 255) of a mean squared error per channel value, as [`psnr`] takes it;
+/// infinity for none. For errors pooled over pixels or images before the logarithm.
+///
+/// ```
+/// use aibr_render::metrics::psnr_of_mse;
+/// // An error of one grey level everywhere.
+/// assert!((psnr_of_mse(1.0) - 48.13).abs() < 0.01);
+/// assert_eq!(psnr_of_mse(0.0), f64::INFINITY);
+/// ```
+pub fn psnr_of_mse(mse: f64) -> f64 {
     if mse == 0.0 {
         f64::INFINITY
     } else {
