@@ -187,12 +187,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 /// 66-70% with this one.)
 const FOLD: f32 = 0.0005;
 
+/// The RMS error over red, green and blue, in grey levels, above which [`ErrorSplit`] counts an
+/// interior pixel as off.
+const LARGE: f64 = 20.0;
+
 /// Where the squared error of rendered views lies, summed over the views: in the band of
 /// pixels within 2 (4-connected steps) of the true silhouette's outside or the image's edge,
-/// or in the interior; the interior pixels off by more than 20 grey levels (RMS over red,
-/// green and blue); and those within 2 of a fold or step of the true depth ([`FOLD`]). These
-/// are pixels inside the true silhouette, as the masked PSNR takes; outside it, the ring of
-/// pixels within 2 of it (the halo a model too fat paints).
+/// or in the interior; the interior pixels off by more than [`LARGE`]; and those within 2 of a
+/// fold or step of the true depth ([`FOLD`]). These are pixels inside the true silhouette, as
+/// the masked PSNR takes; outside it, the ring of pixels within 2 of it (the halo a model too
+/// fat paints).
 #[derive(Debug, Default)]
 struct ErrorSplit {
     band: Tally,
@@ -288,7 +292,7 @@ impl ErrorSplit {
                 if within_two(xi, yi).any(near_fold) {
                     self.folds.add(error);
                 }
-                if error > 400.0 {
+                if error > LARGE * LARGE {
                     self.large.add(error);
                 }
             }
