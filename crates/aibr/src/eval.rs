@@ -7,7 +7,7 @@ use std::collections::hash_map::Entry;
 use std::path::Path;
 
 use aibr_camera::{Angle, Camera};
-use aibr_render::{RenderParams, Renderer, SourceView, metrics};
+use aibr_render::{RenderParams, metrics};
 use aibr_scene::{GeometryReference, RenderOptions, Scene};
 use aibr_voxel::metrics::{GeometryScore, geometry_score};
 use aibr_voxel::{
@@ -16,7 +16,7 @@ use aibr_voxel::{
 use image::{GrayImage, RgbImage};
 
 use crate::capture::{
-    CaptureParams, Strategy, VOXEL_COLORING, capture, reconstruct_views, voxel_views,
+    CaptureParams, Strategy, VOXEL_COLORING, capture, reconstruct_views, renderer_with, voxel_views,
 };
 use crate::error::{Error, Result};
 use crate::replay::ReplayRig;
@@ -626,14 +626,7 @@ fn measure<R: EvalRig>(
         }
     };
     let score = reference.map(|r| geometry_score(&model, &r.exposed, &r.visible));
-    let sources = views
-        .iter()
-        .map(|v| SourceView {
-            camera: v.camera.clone(),
-            image: v.image.clone(),
-        })
-        .collect();
-    let renderer = Renderer::new(&model, sources, params.render)?;
+    let renderer = renderer_with(views, &model, params.render)?;
     let mut pans: Vec<Angle> = views
         .iter()
         .map(|v| Angle::from_radians(v.record.pan_rad))
