@@ -125,15 +125,32 @@ pub fn score_pairs(
         .collect();
     let tolerance = params.occlusion_tolerance_voxels * model.grid().voxel_size();
     let pairs = ring_pairs(pans, range);
-    Ok(pairs
+    // Each view's foreground is checked against every view it pairs with in one pass, so each
+    // pixel is unprojected once; `slots[i]` says where pair `i`'s two checks land in the lists
+    // of its views.
+    let mut partners: Vec<Vec<usize>> = vec![Vec::new(); views.len()];
+    let mut slots = Vec::with_capacity(pairs.len());
+    for &(a, b) in &pairs {
+        partners[a].push(b);
+        let at_a = partners[a].len() - 1;
+        partners[b].push(a);
+        slots.push((at_a, partners[b].len() - 1));
+    }
+    let mut checks: Vec<Vec<OneWay>> = partners
         .par_iter()
-        .map(|&(a, b)| {
-            let ab = one_way(
-                &views[a], &depths[a], &views[b], &depths[b], tolerance, params,
-            );
-            let ba = one_way(
-                &views[b], &depths[b], &views[a], &depths[a], tolerance, params,
-            );
+        .enumerate()
+        .map(|(v, to)| {
+            let targets: Vec<(&View<'_>, &DepthMap)> =
+                to.iter().map(|&t| (&views[t], &depths[t])).collect();
+            check_against(&views[v], &depths[v], &targets, tolerance, params)
+        })
+        .collect();
+    Ok(pairs
+        .iter()
+        .zip(slots)
+        .map(|(&(a, b), (at_a, at_b))| {
+            let ab = std::mem::take(&mut checks[a][at_a]);
+            let ba = std::mem::take(&mut checks[b][at_b]);
             PairScore {
                 a,
                 b,
@@ -147,6 +164,8 @@ pub fn score_pairs(
         .collect())
 }
 
+/// One view's foreground checked against another view.
+#[derive(Debug, Default, PartialEq)]
 struct OneWay {
     score: f64,
     unexplained: usize,
@@ -154,25 +173,25 @@ struct OneWay {
     map: GrayImage,
 }
 
-/// The foreground of `from` checked against `to`.
-fn one_way(
+/// The foreground of `from` checked against each of `targets` (a view and its depth map): one
+/// [`OneWay`] per target, in their order, each as if checked alone.
+fn check_against(
     from: &View<'_>,
     from_depth: &DepthMap,
-    to: &View<'_>,
-    to_depth: &DepthMap,
+    targets: &[(&View<'_>, &DepthMap)],
     tolerance: f64,
     params: &ConsistencyParams,
-) -> OneWay {
+) -> Vec<OneWay> {
     let size = from.camera.size;
-    let mut map = GrayImage::new(size.width, size.height);
-    let (mut score, mut unexplained, mut compared) = (0.0, 0, 0);
+    let mut out: Vec<OneWay> = targets
+        .iter()
+        .map(|_| OneWay {
+            map: GrayImage::new(size.width, size.height),
+            ..OneWay::default()
+        })
+        .collect();
     let Some(mask) = from.mask else {
-        return OneWay {
-            score,
-            unexplained,
-            compared,
-            map,
-        };
+        return out;
     };
     for (x, y, m) in mask.enumerate_pixels() {
         if m.0[0] == 0 {
@@ -180,9 +199,11 @@ fn one_way(
         }
         let d = from_depth.get_pixel(x, y).0[0];
         if !d.is_finite() {
-            unexplained += 1;
-            score += 1.0;
-            map.put_pixel(x, y, image::Luma([255]));
+            for o in &mut out {
+                o.unexplained += 1;
+                o.score += 1.0;
+                o.map.put_pixel(x, y, image::Luma([255]));
+            }
             continue;
         }
         let Some(p) = from
@@ -191,41 +212,64 @@ fn one_way(
         else {
             continue;
         };
-        let Some(q) = to.camera.project(&p) else {
-            continue;
-        };
-        if !to.camera.size.contains(q) {
-            continue;
+        for (&(to, to_depth), o) in targets.iter().zip(&mut out) {
+            let Some(q) = to.camera.project(&p) else {
+                continue;
+            };
+            if !to.camera.size.contains(q) {
+                continue;
+            }
+            let seen = to_depth
+                .get_pixel_checked(round_index(q.x), round_index(q.y))
+                .map(|t| t.0[0]);
+            if seen.is_none_or(|t| to.camera.depth_of(&p) > t as f64 + tolerance) {
+                continue; // occluded in the other view: not comparable
+            }
+            let c = sample(to.image, q.x, q.y);
+            let s = from.image.get_pixel(x, y).0;
+            let diff = ((0..3).map(|i| (s[i] as f32 - c[i]).powi(2)).sum::<f32>() / 3.0).sqrt();
+            let e = ((diff - params.colour_tolerance)
+                / (params.colour_scale - params.colour_tolerance))
+                .clamp(0.0, 1.0);
+            o.score += e as f64;
+            o.compared += 1;
+            o.map.put_pixel(x, y, image::Luma([grey(e)]));
         }
-        let (qu, qv) = (q.x.round().max(0.0) as u32, q.y.round().max(0.0) as u32);
-        let seen = to_depth.get_pixel_checked(qu, qv).map(|t| t.0[0]);
-        if seen.is_none_or(|t| to.camera.depth_of(&p) > t as f64 + tolerance) {
-            continue; // occluded in the other view: not comparable
-        }
-        let c = sample(to.image, q.x, q.y);
-        let s = from.image.get_pixel(x, y).0;
-        let diff = ((0..3).map(|i| (s[i] as f32 - c[i]).powi(2)).sum::<f32>() / 3.0).sqrt();
-        let e = ((diff - params.colour_tolerance)
-            / (params.colour_scale - params.colour_tolerance))
-            .clamp(0.0, 1.0);
-        score += e as f64;
-        compared += 1;
-        map.put_pixel(x, y, image::Luma([(e * 255.0).round() as u8]));
     }
-    OneWay {
-        score,
-        unexplained,
-        compared,
-        map,
+    out
+}
+
+/// `x.round().max(0.0) as u32` (the nearest pixel index, halves away from zero, negatives and
+/// NaN to 0) without libm's `round`, a call on baseline x86-64, which has no rounding
+/// instruction: `x - trunc(x)` is exact, so the two agree for every `x`.
+fn round_index(x: f64) -> u32 {
+    let x = x.max(0.0);
+    let t = x as u32;
+    if x - t as f64 >= 0.5 {
+        t.saturating_add(1)
+    } else {
+        t
+    }
+}
+
+/// `(e * 255.0).round() as u8`, as [`round_index`] does it.
+fn grey(e: f32) -> u8 {
+    let x = e * 255.0;
+    let t = x as u8;
+    if x - t as f32 >= 0.5 {
+        t.saturating_add(1)
+    } else {
+        t
     }
 }
 
 fn sample(img: &RgbImage, u: f64, v: f64) -> [f32; 3] {
     let (w, h) = (img.width() as f64, img.height() as f64);
     let (u, v) = (u.clamp(0.0, w - 1.0), v.clamp(0.0, h - 1.0));
-    let (x0, y0) = (u.floor(), v.floor());
-    let (fx, fy) = ((u - x0) as f32, (v - y0) as f32);
-    let (x0, y0) = (x0 as u32, y0 as u32);
+    // Truncation is the floor of the clamped (non-negative) coordinates, without libm's call;
+    // a NaN gives 0 and a NaN weight, as `floor` did.
+    let (x0, y0) = (u as u32, v as u32);
+    let (fx, fy) = ((u - x0 as f64) as f32, (v - y0 as f64) as f32);
     let (x1, y1) = (
         (x0 + 1).min(img.width() - 1),
         (y0 + 1).min(img.height() - 1),
@@ -237,4 +281,124 @@ fn sample(img: &RgbImage, u: f64, v: f64) -> [f32; 3] {
         let bottom = c[i] + (d[i] - c[i]) * fx;
         top + (bottom - top) * fy
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aibr_scene::{RenderOptions, catalogue};
+    use aibr_voxel::{ColoringParams, VoxelGrid, voxel_coloring};
+    use proptest::prelude::*;
+
+    type TestResult = std::result::Result<(), Box<dyn std::error::Error>>;
+
+    proptest! {
+        #[test]
+        fn round_index_is_libm_round(bits in any::<u64>()) {
+            let x = f64::from_bits(bits);
+            prop_assert_eq!(round_index(x), x.round().max(0.0) as u32, "x = {}", x);
+        }
+
+        #[test]
+        fn round_index_is_libm_round_on_pixels(x in -2.0f64..700.0) {
+            prop_assert_eq!(round_index(x), x.round().max(0.0) as u32, "x = {}", x);
+        }
+
+        #[test]
+        fn grey_is_libm_round(bits in any::<u32>()) {
+            let e = f32::from_bits(bits);
+            prop_assert_eq!(grey(e), (e * 255.0).round() as u8, "e = {}", e);
+        }
+
+        #[test]
+        fn grey_is_libm_round_on_errors(e in 0.0f32..=1.0) {
+            prop_assert_eq!(grey(e), (e * 255.0).round() as u8, "e = {}", e);
+        }
+    }
+
+    #[test]
+    fn rounding_at_the_halves() {
+        for (x, r) in [
+            (0.5, 1),
+            (1.5, 2),
+            (2.5, 3),
+            (0.49999999999999994, 0),
+            (-0.5, 0),
+        ] {
+            assert_eq!(round_index(x), r, "x = {x}");
+        }
+        assert_eq!(grey(0.5 / 255.0), (0.5f32 / 255.0 * 255.0).round() as u8);
+        assert_eq!(grey(f32::NAN), 0);
+        assert_eq!(round_index(f64::NAN), 0);
+        assert_eq!(round_index(f64::INFINITY), u32::MAX);
+    }
+
+    /// Every pair's two checks, each made alone, are what `score_pairs` reports for it: the
+    /// shared pass over a view's foreground changes nothing, and each check lands in its pair
+    /// (a whole turn, so the last view pairs with the first too).
+    #[test]
+    fn pairs_hold_their_own_checks() -> TestResult {
+        let scene = catalogue::head()?;
+        let pans = scene.rig.uniform_pans(5);
+        let shots = scene.shoot(&pans, &RenderOptions::default())?;
+        let views: Vec<View<'_>> = shots
+            .iter()
+            .map(|s| View {
+                camera: &s.camera,
+                image: &s.image,
+                mask: Some(&s.frame.mask),
+            })
+            .collect();
+        let grid = VoxelGrid::with_resolution(scene.bounds(), 48)?;
+        let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
+        let range = PanRange::full_turn();
+        let params = ConsistencyParams::default();
+        let scores = score_pairs(&model, &views, &pans, &range, &params)?;
+        assert_eq!(scores.len(), 5);
+        let depths: Vec<DepthMap> = views.iter().map(|v| model.depth_map(v.camera)).collect();
+        let tolerance = params.occlusion_tolerance_voxels * grid.voxel_size();
+        let alone = |from: usize, to: usize| {
+            check_against(
+                &views[from],
+                &depths[from],
+                &[(&views[to], &depths[to])],
+                tolerance,
+                &params,
+            )
+            .pop()
+        };
+        for s in &scores {
+            let (Some(ab), Some(ba)) = (alone(s.a, s.b), alone(s.b, s.a)) else {
+                return Err("a check made alone gave nothing".into());
+            };
+            assert!(
+                ab.compared > 0 && ba.compared > 0,
+                "pair ({}, {})",
+                s.a,
+                s.b
+            );
+            assert_eq!(s.score.to_bits(), (ab.score + ba.score).to_bits());
+            assert_eq!(s.unexplained_pixels, ab.unexplained + ba.unexplained);
+            assert_eq!(s.compared_pixels, ab.compared + ba.compared);
+            assert!(
+                s.error_a == ab.map && s.error_b == ba.map,
+                "pair ({}, {})",
+                s.a,
+                s.b
+            );
+        }
+        // Two targets in one pass, in either order, give each target's check made alone.
+        for targets in [[0, 2], [2, 0]] {
+            let both = check_against(
+                &views[1],
+                &depths[1],
+                &targets.map(|t| (&views[t], &depths[t])),
+                tolerance,
+                &params,
+            );
+            let apart: Vec<OneWay> = targets.iter().filter_map(|&t| alone(1, t)).collect();
+            assert!(both == apart, "targets {targets:?}");
+        }
+        Ok(())
+    }
 }
