@@ -9,7 +9,7 @@
 
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_scene::{RenderOptions, catalogue};
-use aibr_voxel::{ColoringParams, View, VoxelGrid, voxel_coloring};
+use aibr_voxel::{ColoringParams, VoxelGrid, voxel_coloring};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 fn bench(c: &mut Criterion) {
@@ -20,14 +20,7 @@ fn bench(c: &mut Criterion) {
     let Ok(shots) = scene.shoot(&scene.rig.uniform_pans(48), &RenderOptions::default()) else {
         return;
     };
-    let views: Vec<View<'_>> = shots
-        .iter()
-        .map(|s| View {
-            camera: &s.camera,
-            image: &s.image,
-            mask: Some(&s.frame.mask),
-        })
-        .collect();
+    let views = aibr_benches::views_of(&shots);
     let Ok(grid) = VoxelGrid::with_resolution(scene.bounds(), 128) else {
         return;
     };

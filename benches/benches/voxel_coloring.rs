@@ -10,9 +10,7 @@
 #![allow(missing_docs)]
 
 use aibr_scene::{RenderOptions, catalogue};
-use aibr_voxel::{
-    ColoringParams, ColumnTest, View, VoxelGrid, voxel_coloring, voxel_coloring_reference,
-};
+use aibr_voxel::{ColoringParams, ColumnTest, VoxelGrid, voxel_coloring, voxel_coloring_reference};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 fn bench(c: &mut Criterion) {
@@ -26,14 +24,7 @@ fn bench(c: &mut Criterion) {
     let Ok(shots) = scene.shoot(&scene.rig.uniform_pans(48), &options) else {
         return;
     };
-    let views: Vec<View<'_>> = shots
-        .iter()
-        .map(|s| View {
-            camera: &s.camera,
-            image: &s.image,
-            mask: Some(&s.frame.mask),
-        })
-        .collect();
+    let views = aibr_benches::views_of(&shots);
     let params = ColoringParams::default();
     let mut g = c.benchmark_group("voxel_coloring");
     g.sample_size(10);

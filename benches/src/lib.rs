@@ -21,3 +21,16 @@ pub fn webcam_on_ring(pan: Angle) -> Result<Camera> {
         ImageSize::new(640, 480),
     )
 }
+
+/// The voxel kernels' views of a synthetic scene's `shots`: each camera and image, with its
+/// ground-truth mask.
+pub fn views_of(shots: &[aibr_scene::Shot]) -> Vec<aibr_voxel::View<'_>> {
+    shots
+        .iter()
+        .map(|s| aibr_voxel::View {
+            camera: &s.camera,
+            image: &s.image,
+            mask: Some(&s.frame.mask),
+        })
+        .collect()
+}
