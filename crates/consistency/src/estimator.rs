@@ -252,15 +252,10 @@ fn round_index(x: f64) -> u32 {
     }
 }
 
-/// `(e * 255.0).round() as u8`, as [`round_index`] does it.
+/// `(e * 255.0).round() as u8` through [`round_index`]: the `f32` widens exactly, so its
+/// nearest integer is the same, and above 255 saturates as the cast did.
 fn grey(e: f32) -> u8 {
-    let x = e * 255.0;
-    let t = x as u8;
-    if x - t as f32 >= 0.5 {
-        t.saturating_add(1)
-    } else {
-        t
-    }
+    u8::try_from(round_index(f64::from(e * 255.0))).unwrap_or(u8::MAX)
 }
 
 fn sample(img: &RgbImage, u: f64, v: f64) -> [f32; 3] {
