@@ -50,10 +50,12 @@ pub struct RenderParams {
 ///
 /// Voxel coloring leaves surfaces a voxel or two in front of where they are (sheets of
 /// photo-consistent voxels, `docs/render.md`). For each pixel that meets the model, depths from
-/// `front_voxels` in front of the hit to `back_voxels` behind it are tried; at each, the two
-/// sources nearest in angle to the virtual camera are sampled and their squared colour
-/// difference summed over a window of neighbouring pixels on the same surface (within 1.5
-/// voxels of the pixel's depth), each at its own depth plus the same offset. The pixel is
+/// `front_voxels` in front of the hit to `back_voxels` behind it are tried; at each, two
+/// sources near the virtual camera (the nearest in angle and, with
+/// [`DepthRefinement::bracketing`], the nearest candidate on its other side) are sampled and
+/// their squared colour difference summed over a window of neighbouring pixels on the same
+/// surface (within 1.5 voxels of the pixel's depth), each at its own depth plus the same
+/// offset. The pixel is
 /// blended at the offset where the sources agree best. Only pixels with `Geometry` coverage are
 /// refined, so a search cannot move a pixel onto another surface far away.
 ///
@@ -83,6 +85,14 @@ pub struct DepthRefinement {
     /// Voxels behind the hit within which no depth is penalised (default 4, the default
     /// reach; finite).
     pub free_voxels: f64,
+    /// Compare the nearest source with the nearest of the frame's other candidates that lies
+    /// on the other side of the virtual camera, when one does (default true), instead of with
+    /// the second nearest. Where views are spread unevenly, as active capture leaves them, the
+    /// two nearest can lie on the same side, and the depth they agree on is then taken from a
+    /// short baseline to one side of the novel ray (`docs/render.md`, "The refinement's pair
+    /// of sources"). Views spread evenly always have the two nearest on both sides, so there
+    /// the two rules are one.
+    pub bracketing: bool,
 }
 
 impl Default for DepthRefinement {
@@ -94,6 +104,7 @@ impl Default for DepthRefinement {
             radius: 1,
             penalty: 0.0,
             free_voxels: 4.0,
+            bracketing: true,
         }
     }
 }
@@ -624,6 +635,35 @@ impl<'a> Renderer<'a> {
         (candidates, n_cand)
     }
 
+    /// The two sources the depth refinement compares for a virtual camera at `centre`, given
+    /// the frame's `candidates` (at least two, nearest first): the nearest and, `bracketing`,
+    /// the nearest other candidate on the other side of the virtual camera (its direction from
+    /// the focus, less its part along the virtual camera's, points against the nearest's), or
+    /// the second nearest when none is or without `bracketing`.
+    fn refinement_pair(
+        &self,
+        centre: &Point3<f64>,
+        candidates: &[(f64, usize)],
+        bracketing: bool,
+    ) -> (usize, usize) {
+        let nearest = candidates[0].1;
+        let second = candidates[1].1;
+        if !bracketing {
+            return (nearest, second);
+        }
+        let to_virtual = (centre - self.focus).normalize();
+        let across = |i: usize| {
+            let d = (self.sources[i].centre - self.focus).normalize();
+            d - to_virtual * d.dot(&to_virtual)
+        };
+        let side = across(nearest);
+        let other = candidates[1..]
+            .iter()
+            .map(|c| c.1)
+            .find(|&i| across(i).dot(&side) < 0.0);
+        (nearest, other.unwrap_or(second))
+    }
+
     /// The depth refinement pass (see [`DepthRefinement`]) over a rendered frame.
     fn refine(
         &self,
@@ -641,10 +681,8 @@ impl<'a> Renderer<'a> {
             s * (-refine.front_voxels + span * k as f64 / (steps - 1) as f64)
         });
         let centre = camera.centre();
-        let (a, b) = (
-            &self.sources[candidates[0].1],
-            &self.sources[candidates[1].1],
-        );
+        let (a, b) = self.refinement_pair(&centre, candidates, refine.bracketing);
+        let (a, b) = (&self.sources[a], &self.sources[b]);
         // The frame's depths, read while the colours and depths are rewritten, and the
         // Geometry pixels in a compact list with their cost slots.
         out.splat.copy_from_slice(out.depth.as_raw());
@@ -1321,6 +1359,62 @@ mod tests {
             }
             proptest::prop_assert_eq!(got[3], 0.0);
         }
+    }
+
+    /// The refinement's pair: the nearest source and the nearest candidate across the virtual
+    /// camera from it; the two nearest where no candidate is across, or without bracketing.
+    #[test]
+    fn the_refinement_pairs_sources_across_the_virtual_camera() -> TestResult {
+        let grid = VoxelGrid::with_resolution(
+            Aabb {
+                min: Point3::new(-0.1, -0.1, 0.0),
+                max: Point3::new(0.1, 0.1, 0.2),
+            },
+            20,
+        )?;
+        let mut model = VoxelModel::empty(grid);
+        for k in 5..15 {
+            for j in 8..12 {
+                for i in 8..12 {
+                    model.set([i, j, k], [128; 3]);
+                }
+            }
+        }
+        let ring = CircularMotion::ring(0.6, 0.3, 0.1)?;
+        let size = ImageSize::new(32, 24);
+        let camera = |degrees: f64| {
+            Camera::new(
+                Intrinsics::new(40.0, 40.0, 16.0, 12.0),
+                Distortion::NONE,
+                ring.cam_from_world(Angle::from_degrees(degrees)),
+                size,
+            )
+        };
+        let pans = [-30.0, -12.0, 0.0, 4.0, 25.0, 40.0];
+        let sources = pans
+            .into_iter()
+            .map(|d| {
+                Ok(SourceView {
+                    camera: camera(d)?,
+                    image: RgbImage::new(size.width, size.height),
+                })
+            })
+            .collect::<std::result::Result<Vec<_>, aibr_camera::Error>>()?;
+        let renderer = Renderer::new(&model, sources, RenderParams::default())?;
+        let pair = |centre: Point3<f64>, bracketing: bool| {
+            let (candidates, n) = renderer.candidates(&centre);
+            renderer.refinement_pair(&centre, &candidates[..n], bracketing)
+        };
+        let at = |degrees: f64| camera(degrees).map(|c| c.centre());
+        // At 7 degrees the two nearest (4 and 0) are both below it; 25 is across.
+        assert_eq!(pair(at(7.0)?, true), (3, 4));
+        assert_eq!(pair(at(7.0)?, false), (3, 2));
+        // At 1.5 degrees the two nearest (0 and 4) are already on both sides.
+        assert_eq!(pair(at(1.5)?, true), (2, 3));
+        assert_eq!(pair(at(1.5)?, false), (2, 3));
+        // Below -30 degrees every candidate is on one side: the two nearest.
+        assert_eq!(pair(at(-50.0)?, true), (0, 1));
+        Ok(())
     }
 
     /// The focal-plane runs of the main pass (pixels no splat covers, shaded a chunk at a

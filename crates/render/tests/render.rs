@@ -169,6 +169,68 @@ fn more_views_render_better_and_coverage_is_reported() -> TestResult {
     Ok(())
 }
 
+/// Views spread unevenly, as active capture leaves them: runs of three views 14 degrees apart
+/// with a gap of 28 degrees after each. A novel view 5 degrees into a gap has its two nearest
+/// sources on the same side (the gap's end and the view before it). The depth refinement
+/// renders it better comparing the nearest source with the one across the gap
+/// (`DepthRefinement::bracketing`, the default) than with the second nearest.
+#[test]
+fn the_refinement_compares_sources_across_the_novel_view() -> TestResult {
+    let all = setup("lambertian", 24, 128)?;
+    let kept: Vec<usize> = (0..all.pans.len()).filter(|i| i % 4 != 3).collect();
+    let pans: Vec<Angle> = kept.iter().map(|&i| all.pans[i]).collect();
+    let sources: Vec<SourceView> = kept.iter().map(|&i| all.sources[i].clone()).collect();
+    let masks: Vec<image::GrayImage> = kept.iter().map(|&i| all.masks[i].clone()).collect();
+    let model = voxel_coloring(
+        &VoxelGrid::with_resolution(all.scene.bounds(), 128)?,
+        &kernel_views(&sources, &masks),
+        &ColoringParams::default(),
+    )?
+    .model;
+    let s = Setup {
+        scene: all.scene,
+        pans,
+        sources,
+        masks,
+        model,
+    };
+    // Five degrees into each gap, from either end.
+    let novel: Vec<Angle> = s
+        .pans
+        .windows(2)
+        .filter(|w| (w[1] - w[0]).degrees() > 20.0)
+        .flat_map(|w| {
+            [
+                w[0] + Angle::from_degrees(5.0),
+                w[1] - Angle::from_degrees(5.0),
+            ]
+        })
+        .collect();
+    assert_eq!(novel.len(), 10, "five gaps");
+    let mean_psnr = |bracketing: bool| -> Result<f64, Box<dyn std::error::Error>> {
+        let params = RenderParams {
+            refine: Some(aibr_render::DepthRefinement {
+                bracketing,
+                ..Default::default()
+            }),
+            ..RenderParams::default()
+        };
+        let r = Renderer::new(&s.model, s.sources.clone(), params)?;
+        let values = novel
+            .iter()
+            .map(|&pan| masked_psnr(&s, &r, pan))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(mean(&values))
+    };
+    let (across, beside) = (mean_psnr(true)?, mean_psnr(false)?);
+    eprintln!("novel views beside a gap: {across:.3} dB across it, {beside:.3} dB beside");
+    assert!(
+        across > beside,
+        "{across} dB across against {beside} dB beside"
+    );
+    Ok(())
+}
+
 #[test]
 fn the_image_changes_continuously_with_the_camera() -> TestResult {
     let s = setup("head", 12, 48)?;
