@@ -232,6 +232,21 @@ struct RefineArgs {
     /// (docs/render.md, "A penalised deep search").
     #[arg(long, value_name = "P", value_parser = parse_penalty)]
     reach_penalty: Option<f64>,
+    /// Which two sources the refinement compares: the nearest and the nearest across the novel
+    /// view from it, or the two nearest (the rule until session 46, which active capture's
+    /// uneven arcs can put on one side of the view; docs/render.md, "The refinement's pair of
+    /// sources"). Evenly spread views give the same pair either way.
+    #[arg(long, value_enum, default_value_t = RefinePair::Across)]
+    refine_pair: RefinePair,
+}
+
+/// The two sources the renderer's depth refinement compares.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum RefinePair {
+    /// The nearest source and the nearest candidate across the novel view from it.
+    Across,
+    /// The two nearest sources.
+    Nearest,
 }
 
 impl RefineArgs {
@@ -242,18 +257,21 @@ impl RefineArgs {
             r.back_voxels = self.reach.unwrap_or(r.back_voxels);
             r.steps = self.refine_steps.unwrap_or(r.steps);
             r.penalty = self.reach_penalty.unwrap_or(r.penalty);
+            r.bracketing = self.refine_pair == RefinePair::Across;
         }
         params
     }
 
     /// Records the search the renderer takes in a JSON object: `reach_voxels`,
-    /// `refine_steps` and `reach_penalty` (null without the refinement).
+    /// `refine_steps`, `reach_penalty` and `refine_pair` (null without the refinement).
     fn record(&self, out: &mut serde_json::Value) {
         let r = self.render_params().refine;
         if let Some(map) = out.as_object_mut() {
             map.insert("reach_voxels".into(), r.map(|r| r.back_voxels).into());
             map.insert("refine_steps".into(), r.map(|r| r.steps).into());
             map.insert("reach_penalty".into(), r.map(|r| r.penalty).into());
+            let pair = r.map(|r| if r.bracketing { "across" } else { "nearest" });
+            map.insert("refine_pair".into(), pair.into());
         }
     }
 }

@@ -927,6 +927,20 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         ["reach_voxels", "refine_steps", "reach_penalty"].map(|k| json[k].as_f64())
     };
     assert_eq!(search(&summary), [Some(4.0), Some(7.0), Some(0.0)]);
+    // The refinement's earlier pair of sources, the two nearest: recorded, and the same
+    // renders wherever the views are evenly spread (the initial views and uniform capture's;
+    // the checkpoints come active first, then uniform).
+    assert_eq!(summary["refine_pair"], "across");
+    let nearest = small_eval_json(
+        &[&budget[..], &["--refine-pair", "nearest"]].concat(),
+        &work,
+    )?;
+    assert_eq!(nearest["refine_pair"], "nearest");
+    let figures = checkpoints(&nearest);
+    assert_eq!(rec.len(), figures.len());
+    for i in [0, 2, 3] {
+        assert_eq!(rec[i], figures[i], "checkpoint {i}");
+    }
     let deep = small_eval_json(&[&budget[..], &DEEP_SEARCH].concat(), &work)?;
     assert_eq!(search(&deep), [Some(8.0), Some(12.0), Some(0.3)]);
     let figures = checkpoints(&deep);
