@@ -7,9 +7,8 @@
 //!   al. 2001), skipping sources that do not see the point. By default each pixel's depth is
 //!   then refined near the model's surface where two sources agree best, the nearest and
 //!   the nearest across the virtual camera from it ([`DepthRefinement`]), which undoes most
-//!   of voxel coloring's fattening. Where the model
-//!   has no surface the focal surface at the object's depth stands in. Each pixel reports its
-//!   [`Coverage`].
+//!   of voxel coloring's fattening. Where the model has no surface the focal surface at the
+//!   object's depth stands in. Each pixel reports its [`Coverage`].
 //! - [`metrics`]: PSNR and SSIM, optionally inside a mask, checked against scikit-image.
 //! - [`write_depth_exr`]: depth as OpenEXR.
 //!

@@ -55,9 +55,9 @@ pub struct RenderParams {
 /// [`DepthRefinement::bracketing`], the nearest candidate on its other side) are sampled and
 /// their squared colour difference summed over a window of neighbouring pixels on the same
 /// surface (within 1.5 voxels of the pixel's depth), each at its own depth plus the same
-/// offset. The pixel is
-/// blended at the offset where the sources agree best. Only pixels with `Geometry` coverage are
-/// refined, so a search cannot move a pixel onto another surface far away.
+/// offset. The pixel is blended at the offset where the sources agree best. Only pixels with
+/// `Geometry` coverage are refined, so a search cannot move a pixel onto another surface far
+/// away.
 ///
 /// A deep search helps where the model is fat (from few views) but can settle on a depth that
 /// agrees by chance; [`DepthRefinement::penalty`] asks the depths beyond
@@ -1361,10 +1361,10 @@ mod tests {
         }
     }
 
-    /// The refinement's pair: the nearest source and the nearest candidate across the virtual
-    /// camera from it; the two nearest where no candidate is across, or without bracketing.
-    #[test]
-    fn the_refinement_pairs_sources_across_the_virtual_camera() -> TestResult {
+    /// A pillar of 4x4x10 voxels in a 20^3 grid, 0.2 m on a side, and the ring its test
+    /// cameras lie on.
+    fn pillar_on_a_ring()
+    -> std::result::Result<(VoxelModel, CircularMotion), Box<dyn std::error::Error>> {
         let grid = VoxelGrid::with_resolution(
             Aabb {
                 min: Point3::new(-0.1, -0.1, 0.0),
@@ -1380,7 +1380,14 @@ mod tests {
                 }
             }
         }
-        let ring = CircularMotion::ring(0.6, 0.3, 0.1)?;
+        Ok((model, CircularMotion::ring(0.6, 0.3, 0.1)?))
+    }
+
+    /// The refinement's pair: the nearest source and the nearest candidate across the virtual
+    /// camera from it; the two nearest where no candidate is across, or without bracketing.
+    #[test]
+    fn the_refinement_pairs_sources_across_the_virtual_camera() -> TestResult {
+        let (model, ring) = pillar_on_a_ring()?;
         let size = ImageSize::new(32, 24);
         let camera = |degrees: f64| {
             Camera::new(
@@ -1421,22 +1428,7 @@ mod tests {
     /// time in single precision) give what shading each pixel on its own gives.
     #[test]
     fn focal_runs_equal_shading_each_pixel() -> TestResult {
-        let grid = VoxelGrid::with_resolution(
-            Aabb {
-                min: Point3::new(-0.1, -0.1, 0.0),
-                max: Point3::new(0.1, 0.1, 0.2),
-            },
-            20,
-        )?;
-        let mut model = VoxelModel::empty(grid);
-        for k in 5..15 {
-            for j in 8..12 {
-                for i in 8..12 {
-                    model.set([i, j, k], [128; 3]);
-                }
-            }
-        }
-        let ring = CircularMotion::ring(0.6, 0.3, 0.1)?;
+        let (model, ring) = pillar_on_a_ring()?;
         let size = ImageSize::new(97, 61);
         let camera = |degrees: f64| {
             Camera::new(

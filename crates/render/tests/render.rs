@@ -169,11 +169,11 @@ fn more_views_render_better_and_coverage_is_reported() -> TestResult {
     Ok(())
 }
 
-/// Views spread unevenly, as active capture leaves them: runs of three views 14 degrees apart
-/// with a gap of 28 degrees after each. A novel view 5 degrees into a gap has its two nearest
-/// sources on the same side (the gap's end and the view before it). The depth refinement
-/// renders it better comparing the nearest source with the one across the gap
-/// (`DepthRefinement::bracketing`, the default) than with the second nearest.
+/// Views spread unevenly, as active capture leaves them: runs of three views about 14
+/// degrees apart with a gap of about 28 degrees after each. A novel view 5 degrees into a gap
+/// has its two nearest sources on the same side (the gap's end and the view before it). The
+/// depth refinement renders it better comparing the nearest source with the one across the
+/// gap (`DepthRefinement::bracketing`, the default) than with the second nearest.
 #[test]
 fn the_refinement_compares_sources_across_the_novel_view() -> TestResult {
     let all = setup("lambertian", 24, 128)?;
