@@ -212,6 +212,7 @@ fn check_against(
         else {
             continue;
         };
+        let s = from.image.get_pixel(x, y).0;
         for (&(to, to_depth), o) in targets.iter().zip(&mut out) {
             let Some(q) = to.camera.project(&p) else {
                 continue;
@@ -226,7 +227,6 @@ fn check_against(
                 continue; // occluded in the other view: not comparable
             }
             let c = sample(to.image, q.x, q.y);
-            let s = from.image.get_pixel(x, y).0;
             let diff = ((0..3).map(|i| (s[i] as f32 - c[i]).powi(2)).sum::<f32>() / 3.0).sqrt();
             let e = ((diff - params.colour_tolerance)
                 / (params.colour_scale - params.colour_tolerance))
