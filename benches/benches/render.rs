@@ -17,7 +17,7 @@ fn bench(c: &mut Criterion) {
         return;
     };
     let pans = scene.rig.uniform_pans(48);
-    let Ok(shots) = scene.shoot(&scene.rig.uniform_pans(48), &RenderOptions::default()) else {
+    let Ok(shots) = scene.shoot(&pans, &RenderOptions::default()) else {
         return;
     };
     let views = aibr_benches::views_of(&shots);
