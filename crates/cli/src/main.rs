@@ -211,7 +211,8 @@ enum OnOff {
     Off,
 }
 
-/// How deep the renderer's depth refinement searches (`aibr render` and `aibr eval`).
+/// How deep the renderer's depth refinement searches, and whether it renders mirrors as
+/// reflections (`aibr render` and `aibr eval`).
 #[derive(clap::Args)]
 struct RefineArgs {
     /// How far behind the model's surface the renderer's depth refinement searches, voxels
@@ -238,6 +239,14 @@ struct RefineArgs {
     /// sources"). Evenly spread views give the same pair either way.
     #[arg(long, value_enum, default_value_t = RefinePair::Across)]
     refine_pair: RefinePair,
+    /// Render mirrors as reflections: where the model's surface is a mirror, a pixel takes
+    /// what the nearest view sees reflected in the same direction of the lab (the camera and
+    /// the surroundings stay still while the object turns). It needs the mirror's surface in
+    /// the model, which voxel coloring carves away: from the true geometry (--model truth)
+    /// the mirror side of `mirror` renders much better near captured views, from the
+    /// reconstruction hardly differently (docs/render.md, "Mirror reflections").
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    reflections: OnOff,
 }
 
 /// The two sources the renderer's depth refinement compares.
@@ -259,14 +268,20 @@ impl RefineArgs {
             r.penalty = self.reach_penalty.unwrap_or(r.penalty);
             r.bracketing = self.refine_pair == RefinePair::Across;
         }
+        if self.reflections == OnOff::On {
+            params.reflections = Some(aibr::render::Reflections::default());
+        }
         params
     }
 
     /// Records the search the renderer takes in a JSON object: `reach_voxels`,
-    /// `refine_steps`, `reach_penalty` and `refine_pair` (null without the refinement).
+    /// `refine_steps`, `reach_penalty` and `refine_pair` (null without the refinement), and
+    /// `reflections` (true or false).
     fn record(&self, out: &mut serde_json::Value) {
-        let r = self.render_params().refine;
+        let params = self.render_params();
+        let r = params.refine;
         if let Some(map) = out.as_object_mut() {
+            map.insert("reflections".into(), params.reflections.is_some().into());
             map.insert("reach_voxels".into(), r.map(|r| r.back_voxels).into());
             map.insert("refine_steps".into(), r.map(|r| r.steps).into());
             map.insert("reach_penalty".into(), r.map(|r| r.penalty).into());

@@ -326,6 +326,13 @@ fn reconstruct_and_render_a_session() -> TestResult {
         searched.push(image);
     }
     assert_ne!(searched[0], searched[1]);
+    // Mirrors taken as reflections: a pixel can change only on the model's surface.
+    let mirrored = dir.join("mirrored.png");
+    assert_success(&render(
+        &[&view[..], &["--reflections", "on"]].concat(),
+        &mirrored,
+    )?);
+    changed_on_surface(&image::open(&mirrored)?.to_rgb8());
     let refused_reach = dir.join("reach_refused.png");
     for (bad, named) in [
         (&["--reach=-1"][..], "--reach"),
@@ -931,6 +938,7 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     // renders wherever the views are evenly spread (the initial views and uniform capture's;
     // the checkpoints come active first, then uniform).
     assert_eq!(summary["refine_pair"], "across");
+    assert_eq!(summary["reflections"], false);
     let nearest = small_eval_json(
         &[&budget[..], &["--refine-pair", "nearest"]].concat(),
         &work,

@@ -22,6 +22,9 @@
 //! how much of the interior's lies in the few pixels off by more than 20 grey levels, and how
 //! much near the folds and steps of the true surface (edges of faces, occlusion edges); and,
 //! where the masked PSNR does not look, the ring of 2 pixels outside the true silhouette.
+//! `AT=f` renders the novel views a fraction `f` of the way from each capture to the next
+//! (default 0.5, half-way). `REFLECT=1` turns on [`RenderParams::reflections`] (its
+//! defaults).
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -48,6 +51,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("|---|---|---|---|---|---|");
     let edges = std::env::var("EDGES").is_ok_and(|e| e == "1");
+    let at: f64 = match std::env::var("AT") {
+        Ok(f) => f.parse()?,
+        Err(_) => 0.5,
+    };
     let mut splits = Vec::new();
     for name in &names {
         let scene = catalogue::by_name(name)?;
@@ -105,6 +112,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 })
                 .collect();
             let mut params = RenderParams::default();
+            if std::env::var("REFLECT").is_ok_and(|r| r == "1") {
+                params.reflections = Some(Default::default());
+            }
             if let Some(k) = std::env::var("K").ok().and_then(|k| k.parse().ok()) {
                 params.k = k;
             }
@@ -125,7 +135,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 (0.0, f64::INFINITY, 0.0, 0.0, 0);
             let mut split = edges.then(ErrorSplit::default);
             for (i, pair) in pans.windows(2).enumerate() {
-                let camera = scene.camera((pair[0] + pair[1]) * 0.5)?;
+                let camera = scene.camera(pair[0] + (pair[1] - pair[0]) * at)?;
                 let truth = scene.render(&camera, &RenderOptions::default())?;
                 let view = renderer.render(&camera)?;
                 let truth8 = truth.rgb8();

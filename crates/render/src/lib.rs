@@ -9,6 +9,9 @@
 //!   the nearest across the virtual camera from it ([`DepthRefinement`]), which undoes most
 //!   of voxel coloring's fattening. Where the model has no surface the focal surface at the
 //!   object's depth stands in. Each pixel reports its [`Coverage`].
+//! - [`reflection`]: optionally ([`RenderParams::reflections`]), a mirror in the model is
+//!   rendered as a reflection of the lab: a pixel takes what the nearest source sees reflected
+//!   in the same direction, as a turntable's still camera and surroundings allow.
 //! - [`metrics`]: PSNR and SSIM, optionally inside a mask, checked against scikit-image.
 //! - [`write_depth_exr`]: depth as OpenEXR.
 //!
@@ -47,10 +50,12 @@
 pub mod error;
 pub mod exr_io;
 pub mod metrics;
+pub mod reflection;
 pub mod renderer;
 
 pub use error::{Error, Result};
 pub use exr_io::write_depth_exr;
+pub use reflection::Reflections;
 pub use renderer::{
     Coverage, DepthRefinement, MAX_CANDIDATES, MAX_FILL_CLOSING, MAX_REFINE_PENALTY,
     MAX_REFINE_STEPS, RenderParams, RenderedView, Renderer, SourceView,

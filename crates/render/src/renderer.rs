@@ -10,6 +10,7 @@ use nalgebra::{Point2, Point3, Rotation3, Vector3};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::reflection::{MirrorMap, Reflections};
 
 /// A captured view: a pinhole camera and its image.
 #[derive(Debug, Clone)]
@@ -44,6 +45,12 @@ pub struct RenderParams {
     /// with gaps and an empty inside; a ray through a gap meets what lies behind, such as the
     /// far side's inner face. `None` renders from the model as given.
     pub fill: Option<usize>,
+    /// Mirror reflections on a turntable (default `None`, off): where the model's surface is
+    /// a mirror, a pixel takes the colour the nearest source sees reflected in the same
+    /// direction of the lab ([`crate::reflection`]). It needs the mirror's surface in the
+    /// model: voxel coloring carves a mirror away, so from its models this changes little
+    /// (`docs/render.md`, "Mirror reflections").
+    pub reflections: Option<Reflections>,
 }
 
 /// Depth refinement near the model's surface.
@@ -118,6 +125,7 @@ impl Default for RenderParams {
             occlusion_tolerance_voxels: 2.0,
             refine: Some(DepthRefinement::default()),
             fill: Some(1),
+            reflections: None,
         }
     }
 }
@@ -176,6 +184,9 @@ impl RenderParams {
                     reason: "must be finite",
                 });
             }
+        }
+        if let Some(reflections) = &self.reflections {
+            reflections.validate()?;
         }
         if let Some(closing) = self.fill.filter(|&c| c > MAX_FILL_CLOSING) {
             return Err(Error::InvalidParameter {
@@ -304,8 +315,11 @@ impl RenderedView {
     }
 }
 
-struct Source {
+/// A source view prepared for rendering: its image, its depth map splatted from the model, and
+/// its projection.
+pub(crate) struct Source {
     image: RgbImage,
+    world_from_cam: Rotation3<f64>,
     depth: Vec<f32>,
     p: [[f64; 4]; 3],
     centre: Point3<f64>,
@@ -314,6 +328,31 @@ struct Source {
 }
 
 impl Source {
+    /// The image.
+    pub(crate) fn image(&self) -> &RgbImage {
+        &self.image
+    }
+
+    /// The camera's centre.
+    pub(crate) fn centre(&self) -> Point3<f64> {
+        self.centre
+    }
+
+    /// The camera's rotation from its frame to the world.
+    pub(crate) fn world_from_cam(&self) -> &Rotation3<f64> {
+        &self.world_from_cam
+    }
+
+    /// The pixel where this source sees the world point `x` on its own surface: on the image,
+    /// and within `tolerance` of the source's depth there, in front or behind.
+    pub(crate) fn on_surface(&self, x: &Point3<f64>, tolerance: f64) -> Option<(f64, f64)> {
+        let h = self.homogeneous(x);
+        let (u, v) = self.pixel(h)?;
+        let (px, py) = ((u + 0.5) as i32 as usize, (v + 0.5) as i32 as usize);
+        let d = f64::from(self.depth[py * self.width as usize + px]);
+        ((h[2] - d).abs() <= tolerance).then_some((u, v))
+    }
+
     /// Homogeneous image coordinates of the world point `x`.
     #[inline]
     fn homogeneous(&self, x: &Point3<f64>) -> [f64; 3] {
@@ -330,7 +369,7 @@ impl Source {
     /// onto the image and, with `occlusion`, is not behind the source's own depth there by
     /// more than that tolerance.
     #[inline]
-    fn sees(&self, p: &Point3<f64>, occlusion: Option<f64>) -> Option<(f64, f64)> {
+    pub(crate) fn sees(&self, p: &Point3<f64>, occlusion: Option<f64>) -> Option<(f64, f64)> {
         let h = self.homogeneous(p);
         let (u, v) = self.pixel(h)?;
         if let Some(tolerance) = occlusion {
@@ -428,6 +467,8 @@ pub struct Renderer<'a> {
     /// How far in front of the nearest splat a ray's DDA starts
     /// ([`aibr_voxel::SPLAT_MARGIN_VOXELS`], in metres).
     splat_margin: f64,
+    /// The model's mirrors, with [`RenderParams::reflections`].
+    mirrors: Option<MirrorMap>,
 }
 
 impl<'a> Renderer<'a> {
@@ -494,6 +535,7 @@ impl<'a> Renderer<'a> {
                     }
                 }
                 Ok(Source {
+                    world_from_cam: cam.world_from_cam().rotation.to_rotation_matrix(),
                     centre: cam.centre(),
                     width: cam.size.width,
                     height: cam.size.height,
@@ -503,12 +545,17 @@ impl<'a> Renderer<'a> {
                 })
             })
             .collect::<Result<Vec<_>>>()?;
+        let tolerance = params.occlusion_tolerance_voxels * s;
+        let mirrors = params
+            .reflections
+            .map(|r| MirrorMap::new(&model, &surface, &prepared, tolerance, &r));
         Ok(Renderer {
+            mirrors,
             model,
             sources: prepared,
             params,
             focus,
-            tolerance: params.occlusion_tolerance_voxels * s,
+            tolerance,
             surface: surface.iter().map(|v| grid.centre(*v)).collect(),
             splat_margin: aibr_voxel::SPLAT_MARGIN_VOXELS * s,
         })
@@ -556,6 +603,7 @@ impl<'a> Renderer<'a> {
         let s = self.model.grid().voxel_size();
         aibr_voxel::splat_depths(&self.surface, s, camera, &mut out.splat);
         let rot = camera.world_from_cam().rotation.to_rotation_matrix();
+        let cam_rot = rot.inverse();
         let focal_depth = camera.depth_of(&self.focus).max(1e-6);
         let pinhole = camera.distortion.is_none();
         // The refinement blends every Geometry pixel again, so the main pass only finds them.
@@ -597,14 +645,23 @@ impl<'a> Renderer<'a> {
                         }
                     }
                     let (colour, depth, coverage) = match pixel_ray(camera, &rot, u, v) {
-                        Some(dir) => self.shade(
-                            &centre,
-                            &dir,
-                            splat[v * width + u] as f64,
-                            focal_depth,
-                            candidates,
-                            !refining,
-                        ),
+                        Some(dir) => {
+                            let (mut colour, depth, coverage) = self.shade(
+                                &centre,
+                                &dir,
+                                splat[v * width + u] as f64,
+                                focal_depth,
+                                candidates,
+                                !refining,
+                            );
+                            if coverage == Coverage::Geometry && !refining {
+                                let p = centre + dir * f64::from(depth);
+                                if let Some(c) = self.reflected(&p, &centre, &cam_rot, candidates) {
+                                    colour = c;
+                                }
+                            }
+                            (colour, depth, coverage)
+                        }
                         None => ([0; 3], f32::INFINITY, Coverage::Nothing),
                     };
                     rgb_row[3 * u..3 * u + 3].copy_from_slice(&colour);
@@ -681,6 +738,7 @@ impl<'a> Renderer<'a> {
             s * (-refine.front_voxels + span * k as f64 / (steps - 1) as f64)
         });
         let centre = camera.centre();
+        let cam_rot = rot.inverse();
         let (a, b) = self.refinement_pair(&centre, candidates, refine.bracketing);
         let (a, b) = (&self.sources[a], &self.sources[b]);
         // The frame's depths, read while the colours and depths are rewritten, and the
@@ -805,6 +863,13 @@ impl<'a> Renderer<'a> {
                             );
                             (colour, z)
                         }
+                    };
+                    // On a mirror, what the nearest source sees reflected the same way, at the
+                    // model's surface (the refinement finds no depth where a mirror agrees).
+                    let at = centre + dir * f64::from(z);
+                    let (colour, depth) = match self.reflected(&at, &centre, &cam_rot, candidates) {
+                        Some(c) => (Some(c), z),
+                        None => (colour, depth),
                     };
                     if let Some(c) = colour {
                         rgb_row[3 * u..3 * u + 3].copy_from_slice(&c);
@@ -960,6 +1025,21 @@ impl<'a> Renderer<'a> {
             Some(c) => (c, depth as f32, Coverage::Fallback),
             None => ([0; 3], f32::INFINITY, Coverage::Nothing),
         }
+    }
+
+    /// With [`RenderParams::reflections`], the colour the nearest candidate sees reflected as a
+    /// virtual camera at `eye` (rotation `cam_from_world`) sees the mirror at `p`, if `p` is on
+    /// one and the candidate sees the same direction on it ([`MirrorMap::reflected`]).
+    fn reflected(
+        &self,
+        p: &Point3<f64>,
+        eye: &Point3<f64>,
+        cam_from_world: &Rotation3<f64>,
+        candidates: &[(f64, usize)],
+    ) -> Option<[u8; 3]> {
+        let mirrors = self.mirrors.as_ref()?;
+        let &(_, nearest) = candidates.first()?;
+        mirrors.reflected(p, eye, cam_from_world, &self.sources[nearest])
     }
 
     /// The unstructured-lumigraph blend of the candidates that see `p`: with `occlusion`, those
@@ -1170,7 +1250,7 @@ impl FocalRow {
 /// `0 <= v <= height - 1`) of an image at least 2 pixels wide and high: red, green and blue,
 /// and a fourth lane that is zero, so that callers can work on all four lanes at once.
 #[inline(always)]
-fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 4] {
+pub(crate) fn bilinear(img: &RgbImage, u: f32, v: f32) -> [f32; 4] {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let raw = img.as_raw();
     if w < 2 || h < 2 {
@@ -1304,6 +1384,7 @@ mod tests {
             let (width, height) = (64, 48);
             let source = Source {
                 image: RgbImage::new(width, height),
+                world_from_cam: Rotation3::identity(),
                 depth: Vec::new(),
                 p: [[0.0; 4]; 3],
                 centre: Point3::origin(),

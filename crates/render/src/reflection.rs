@@ -1,0 +1,369 @@
+//! Mirror reflections on a turntable: where the model's surface is a mirror, a novel view's
+//! pixel takes the colour the nearest source sees reflected in the same direction of the lab.
+//!
+//! On a turntable the camera, the lamps and everything the object reflects stay still while
+//! the object turns. In the camera's own frame a distant environment is therefore the same
+//! for every view: a ray leaving a mirror in the direction `e` (camera coordinates) shows the
+//! same colour in every view. Blending the sources at the mirror's surface point, as the
+//! renderer does elsewhere, shows each source's reflection where the novel view has its own,
+//! and the reflection turns twice as fast as the object, so even views a few degrees apart
+//! disagree everywhere on a mirror (`docs/render.md`, "Mirror reflections").
+//!
+//! For a pixel whose ray meets a mirror voxel at `p` with normal `n`, the reflected ray
+//! `r = d - 2 (d . n) n` is expressed in the novel camera's frame, `e`, and carried into the
+//! nearest source's world frame, `r_s`. The source sees that direction reflected where its
+//! own ray `q = r_s - 2 (r_s . n) n` meets the mirror's plane; the pixel takes the colour
+//! there when that point is on the image, the source's surface is there, and it lies on the
+//! same mirror (a mirror voxel whose normal agrees, within a reach of `p`). Elsewhere the
+//! pixel keeps its blend. Exact for a planar mirror and an environment far from it; on a
+//! curved mirror the plane through `p` stands in for the surface.
+//!
+//! Which voxels are mirrors, and their normals, come from the model and the sources when
+//! the renderer is made: each surface voxel's normal is the least direction
+//! of the surface voxels around it; it is a mirror when the colours the sources see at it
+//! differ from those of their angularly nearest neighbour (within 20 degrees) by more than a
+//! threshold.
+//!
+//! # Conventions
+//! The renderer's: the turntable frame of `aibr-camera`. The model assumes that every view
+//! comes from one camera fixed in the lab (the object turns, not the camera).
+
+use nalgebra::{Matrix3, Point3, Rotation3, SymmetricEigen, Vector3};
+use rayon::prelude::*;
+
+use aibr_voxel::{VoxelGrid, VoxelModel};
+
+use crate::error::{Error, Result};
+use crate::renderer::{Source, bilinear};
+
+/// Mirror reflections ([`crate::RenderParams::reflections`]; see the [module
+/// documentation](self)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reflections {
+    /// A surface voxel is a mirror when the colours the sources that see it find there differ
+    /// from those of their angularly nearest neighbour (within 20 degrees) by more than this,
+    /// as a mean RMS over the channels in grey levels (default 40; a matte surface seen
+    /// where the model is right differs by a few grey levels).
+    pub specular_rms: f64,
+    /// Radius in voxels of the surface voxels around a voxel that its normal is fitted to
+    /// (default 3; 1 to 8).
+    pub normal_radius: usize,
+    /// How far from the novel view's point, in voxels, the source's mirror point may lie
+    /// (default 60, the size of a mirror much larger than the voxel).
+    pub reach_voxels: f64,
+}
+
+impl Default for Reflections {
+    fn default() -> Self {
+        Reflections {
+            specular_rms: 40.0,
+            normal_radius: 3,
+            reach_voxels: 60.0,
+        }
+    }
+}
+
+impl Reflections {
+    /// Checks the parameters: each out of its domain is [`Error::InvalidParameter`].
+    pub(crate) fn validate(&self) -> Result<()> {
+        if !(self.specular_rms.is_finite() && self.specular_rms >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "reflections.specular_rms",
+                value: self.specular_rms,
+                reason: "grey levels, finite and not negative",
+            });
+        }
+        if !(1..=8).contains(&self.normal_radius) {
+            return Err(Error::InvalidParameter {
+                name: "reflections.normal_radius",
+                value: self.normal_radius as f64,
+                reason: "between 1 and 8 voxels",
+            });
+        }
+        if !(self.reach_voxels.is_finite() && self.reach_voxels > 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "reflections.reach_voxels",
+                value: self.reach_voxels,
+                reason: "voxels, finite and positive",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The cosine two sources' directions from a voxel make at least for their colours there to
+/// be compared (20 degrees).
+const NEIGHBOUR_COSINE: f64 = 0.94;
+
+/// The cosine two normals of one mirror make at least (15 degrees).
+const SAME_PLANE_COSINE: f64 = 0.966;
+
+/// The model's surface voxels with their normals, and which of them are mirrors.
+pub(crate) struct MirrorMap {
+    grid: VoxelGrid,
+    /// Per voxel of the grid, its slot among the surface voxels (`u32::MAX` for none).
+    slot: Vec<u32>,
+    /// Per surface voxel, its unit normal (its sign is arbitrary: a reflection does not depend
+    /// on it) and whether it is a mirror.
+    normal: Vec<Vector3<f64>>,
+    mirror: Vec<bool>,
+    /// The reach, in metres.
+    reach: f64,
+    /// How far behind a source's own depth a point it sees may lie, in metres.
+    tolerance: f64,
+}
+
+impl MirrorMap {
+    /// The map of `model`'s `surface` voxels, judged by `sources` (seeing a point within
+    /// `tolerance` metres of their own depth).
+    pub(crate) fn new(
+        model: &VoxelModel,
+        surface: &[[usize; 3]],
+        sources: &[Source],
+        tolerance: f64,
+        params: &Reflections,
+    ) -> Self {
+        let grid = *model.grid();
+        let [nx, ny, _] = grid.dims();
+        let mut slot = vec![u32::MAX; grid.len()];
+        for (n, &[i, j, k]) in surface.iter().enumerate() {
+            slot[(k * ny + j) * nx + i] = n as u32;
+        }
+        let map = MirrorMap {
+            grid,
+            slot,
+            normal: Vec::new(),
+            mirror: Vec::new(),
+            reach: params.reach_voxels * grid.voxel_size(),
+            tolerance,
+        };
+        let r = params.normal_radius as i64;
+        let normal = surface
+            .par_iter()
+            .map(|&v| map.fitted_normal(v, r))
+            .collect();
+        let mirror = surface
+            .par_iter()
+            .map(|&v| specular_rms(&grid.centre(v), sources, tolerance) > params.specular_rms)
+            .collect();
+        MirrorMap {
+            normal,
+            mirror,
+            ..map
+        }
+    }
+
+    /// The slot of the surface voxel at `[i, j, k]` (signed, possibly off the grid).
+    fn slot_at(&self, i: i64, j: i64, k: i64) -> Option<usize> {
+        let [nx, ny, nz] = self.grid.dims();
+        if i < 0 || j < 0 || k < 0 || i >= nx as i64 || j >= ny as i64 || k >= nz as i64 {
+            return None;
+        }
+        let s = self.slot[(k as usize * ny + j as usize) * nx + i as usize];
+        (s != u32::MAX).then_some(s as usize)
+    }
+
+    /// The least direction of the surface voxels within `r` voxels of `v` (the normal of the
+    /// plane they fit best); a zero vector where they span no plane.
+    fn fitted_normal(&self, [i, j, k]: [usize; 3], r: i64) -> Vector3<f64> {
+        let mut offsets = Vec::new();
+        for dk in -r..=r {
+            for dj in -r..=r {
+                for di in -r..=r {
+                    if di * di + dj * dj + dk * dk > r * r {
+                        continue;
+                    }
+                    let (a, b, c) = (i as i64 + di, j as i64 + dj, k as i64 + dk);
+                    if self.slot_at(a, b, c).is_some() {
+                        offsets.push(Vector3::new(di as f64, dj as f64, dk as f64));
+                    }
+                }
+            }
+        }
+        if offsets.len() < 3 {
+            return Vector3::zeros();
+        }
+        let mean = offsets.iter().sum::<Vector3<f64>>() / offsets.len() as f64;
+        let scatter = offsets
+            .iter()
+            .map(|o| (o - mean) * (o - mean).transpose())
+            .sum::<Matrix3<f64>>();
+        let eigen = SymmetricEigen::new(scatter);
+        let least = eigen.eigenvalues.imin();
+        eigen.eigenvectors.column(least).normalize()
+    }
+
+    /// The normal of the mirror at `x`: that of the surface voxel nearest `x` among the 27
+    /// around it, when that voxel is a mirror with a normal.
+    pub(crate) fn mirror_at(&self, x: &Point3<f64>) -> Option<Vector3<f64>> {
+        let f = (x - self.grid.bounds().min) / self.grid.voxel_size();
+        let (ci, cj, ck) = (f.x.floor() as i64, f.y.floor() as i64, f.z.floor() as i64);
+        let mut nearest: Option<(f64, usize)> = None;
+        for dk in -1..=1 {
+            for dj in -1..=1 {
+                for di in -1..=1 {
+                    let (i, j, k) = (ci + di, cj + dj, ck + dk);
+                    let Some(s) = self.slot_at(i, j, k) else {
+                        continue;
+                    };
+                    let d =
+                        (self.grid.centre([i as usize, j as usize, k as usize]) - x).norm_squared();
+                    if nearest.is_none_or(|(best, _)| d < best) {
+                        nearest = Some((d, s));
+                    }
+                }
+            }
+        }
+        let (_, s) = nearest?;
+        let n = self.normal[s];
+        (self.mirror[s] && n != Vector3::zeros()).then_some(n)
+    }
+
+    /// The colour `source` sees reflected in the direction a novel view from `eye` sees
+    /// reflected at `p` (`cam_from_world` is the novel camera's rotation), when `p` is on a
+    /// mirror and the source sees that direction on the same mirror.
+    pub(crate) fn reflected(
+        &self,
+        p: &Point3<f64>,
+        eye: &Point3<f64>,
+        cam_from_world: &Rotation3<f64>,
+        source: &Source,
+    ) -> Option<[u8; 3]> {
+        let n = self.mirror_at(p)?;
+        let reflect = |d: Vector3<f64>| d - n * (2.0 * d.dot(&n));
+        // The reflected ray's direction in the lab, which is the camera's frame for every view.
+        let lab = cam_from_world * reflect((p - eye).normalize());
+        let q = reflect(source.world_from_cam() * lab);
+        let towards = q.dot(&n);
+        if towards.abs() < 1e-9 {
+            return None;
+        }
+        let t = (p - source.centre()).dot(&n) / towards;
+        if !(t > 0.0) {
+            return None;
+        }
+        let x = source.centre() + q * t;
+        if (x - p).norm() > self.reach {
+            return None;
+        }
+        let (u, v) = source.on_surface(&x, self.tolerance)?;
+        let m = self.mirror_at(&x)?;
+        if m.dot(&n).abs() < SAME_PLANE_COSINE {
+            return None;
+        }
+        let c = bilinear(source.image(), u as f32, v as f32);
+        // Bytes interpolated: in [0, 255] up to rounding, and `as` saturates.
+        Some([(c[0] + 0.5) as u8, (c[1] + 0.5) as u8, (c[2] + 0.5) as u8])
+    }
+}
+
+/// How much the colours the `sources` see at `x` differ from those of their angularly nearest
+/// neighbour among them, when that lies within 20 degrees: the mean over such pairs of the RMS
+/// difference over the channels, in grey levels (0 when there is none).
+fn specular_rms(x: &Point3<f64>, sources: &[Source], tolerance: f64) -> f64 {
+    let seen: Vec<(Vector3<f64>, [f32; 4])> = sources
+        .iter()
+        .filter_map(|s| {
+            let (u, v) = s.sees(x, Some(tolerance))?;
+            let c = bilinear(s.image(), u as f32, v as f32);
+            Some(((s.centre() - x).normalize(), c))
+        })
+        .collect();
+    if seen.len() < 2 {
+        return 0.0;
+    }
+    let total: (f64, u32) = seen
+        .iter()
+        .enumerate()
+        .map(|(a, (da, ca))| {
+            let nearest = seen
+                .iter()
+                .enumerate()
+                .filter(|&(b, _)| b != a)
+                .max_by(|(_, (d1, _)), (_, (d2, _))| da.dot(d1).total_cmp(&da.dot(d2)))
+                .filter(|(_, (db, _))| da.dot(db) >= NEIGHBOUR_COSINE);
+            nearest.map(|(_, (_, cb))| {
+                let sq: f32 = (0..3).map(|ch| (ca[ch] - cb[ch]).powi(2)).sum();
+                f64::from(sq / 3.0).sqrt()
+            })
+        })
+        .fold((0.0, 0), |(sum, n), d| match d {
+            Some(d) => (sum + d, n + 1),
+            None => (sum, n),
+        });
+    if total.1 == 0 {
+        0.0
+    } else {
+        total.0 / f64::from(total.1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aibr_camera::Aabb;
+
+    #[test]
+    fn parameters_out_of_their_domain_are_refused() {
+        assert!(Reflections::default().validate().is_ok());
+        let bad = [
+            Reflections {
+                specular_rms: f64::NAN,
+                ..Default::default()
+            },
+            Reflections {
+                specular_rms: -1.0,
+                ..Default::default()
+            },
+            Reflections {
+                normal_radius: 0,
+                ..Default::default()
+            },
+            Reflections {
+                normal_radius: 9,
+                ..Default::default()
+            },
+            Reflections {
+                reach_voxels: 0.0,
+                ..Default::default()
+            },
+            Reflections {
+                reach_voxels: f64::INFINITY,
+                ..Default::default()
+            },
+        ];
+        for r in bad {
+            assert!(
+                matches!(r.validate(), Err(Error::InvalidParameter { .. })),
+                "{r:?}"
+            );
+        }
+    }
+
+    /// A slab of voxels around a tilted plane: the normals fitted to its surface voxels lie
+    /// within a few degrees of the plane's, and with no source nothing is a mirror.
+    #[test]
+    fn normals_are_fitted_to_the_surface_around() -> Result<(), Box<dyn std::error::Error>> {
+        let bounds = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 1.0, 1.0))?;
+        let grid = VoxelGrid::with_resolution(bounds, 40)?;
+        let n = Vector3::new(1.0, 2.0, 3.0).normalize();
+        let centre = Point3::new(0.5, 0.5, 0.5);
+        let half = 0.6 * grid.voxel_size();
+        let model = VoxelModel::from_centres(grid, |p| (p - centre).dot(&n).abs() < half);
+        let surface = model.surface_voxels();
+        let map = MirrorMap::new(&model, &surface, &[], 0.0, &Reflections::default());
+        let mut checked = 0;
+        for (v, normal) in surface.iter().zip(&map.normal) {
+            if (grid.centre(*v) - centre).norm() > 0.3 {
+                continue;
+            }
+            let angle = normal.dot(&n).abs().min(1.0).acos().to_degrees();
+            assert!(angle < 5.0, "{v:?}: {angle} degrees off");
+            checked += 1;
+        }
+        assert!(checked > 100, "{checked}");
+        assert!(map.mirror.iter().all(|&m| !m));
+        assert_eq!(map.mirror_at(&centre), None);
+        Ok(())
+    }
+}
