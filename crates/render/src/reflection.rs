@@ -109,7 +109,8 @@ pub(crate) struct MirrorMap {
     mirror: Vec<bool>,
     /// The reach, in metres.
     reach: f64,
-    /// How far behind a source's own depth a point it sees may lie, in metres.
+    /// How far from a source's own depth, in front or behind, a point on its surface may lie,
+    /// in metres.
     tolerance: f64,
 }
 

@@ -49,7 +49,8 @@ pub struct RenderParams {
     /// a mirror, a pixel takes the colour the nearest source sees reflected in the same
     /// direction of the lab ([`crate::reflection`]). It needs the mirror's surface in the
     /// model: voxel coloring carves a mirror away, so from its models this changes little
-    /// (`docs/render.md`, "Mirror reflections").
+    /// (`docs/render.md`, "Mirror reflections"). The renderer then keeps 4 bytes per voxel of
+    /// the model's grid, and a normal per surface voxel.
     pub reflections: Option<Reflections>,
 }
 
