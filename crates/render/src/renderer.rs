@@ -349,9 +349,16 @@ impl Source {
     pub(crate) fn on_surface(&self, x: &Point3<f64>, tolerance: f64) -> Option<(f64, f64)> {
         let h = self.homogeneous(x);
         let (u, v) = self.pixel(h)?;
-        let (px, py) = ((u + 0.5) as i32 as usize, (v + 0.5) as i32 as usize);
-        let d = f64::from(self.depth[py * self.width as usize + px]);
-        ((h[2] - d).abs() <= tolerance).then_some((u, v))
+        ((h[2] - self.depth_at(u, v)).abs() <= tolerance).then_some((u, v))
+    }
+
+    /// The source's own depth at the pixel nearest `(u, v)`, a point on its image (so
+    /// `u, v >= 0`: adding a half and truncating rounds them, through `i32`, one instruction on
+    /// x86-64 where `usize` takes several).
+    #[inline]
+    fn depth_at(&self, u: f64, v: f64) -> f64 {
+        let (x, y) = ((u + 0.5) as i32 as usize, (v + 0.5) as i32 as usize);
+        f64::from(self.depth[y * self.width as usize + x])
     }
 
     /// Homogeneous image coordinates of the world point `x`.
@@ -374,11 +381,7 @@ impl Source {
         let h = self.homogeneous(p);
         let (u, v) = self.pixel(h)?;
         if let Some(tolerance) = occlusion {
-            // u, v >= 0 here, so adding a half and truncating rounds them (through `i32`, one
-            // instruction on x86-64 where `usize` takes several).
-            let (x, y) = ((u + 0.5) as i32 as usize, (v + 0.5) as i32 as usize);
-            let d = self.depth[y * self.width as usize + x];
-            if h[2] > d as f64 + tolerance {
+            if h[2] > self.depth_at(u, v) + tolerance {
                 return None;
             }
         }
