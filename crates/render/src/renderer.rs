@@ -675,7 +675,7 @@ impl<'a> Renderer<'a> {
                 }
             });
         if let (Some(refine), true) = (self.params.refine, refining) {
-            self.refine(camera, &rot, refine, candidates, out);
+            self.refine(camera, (&rot, &cam_rot), refine, candidates, out);
         }
         Ok(())
     }
@@ -725,11 +725,12 @@ impl<'a> Renderer<'a> {
         (nearest, other.unwrap_or(second))
     }
 
-    /// The depth refinement pass (see [`DepthRefinement`]) over a rendered frame.
+    /// The depth refinement pass (see [`DepthRefinement`]) over a rendered frame; `rot` is
+    /// the camera's world-from-camera rotation and `cam_rot` its inverse.
     fn refine(
         &self,
         camera: &Camera,
-        rot: &Rotation3<f64>,
+        (rot, cam_rot): (&Rotation3<f64>, &Rotation3<f64>),
         refine: DepthRefinement,
         candidates: &[(f64, usize)],
         out: &mut RenderedView,
@@ -742,7 +743,6 @@ impl<'a> Renderer<'a> {
             s * (-refine.front_voxels + span * k as f64 / (steps - 1) as f64)
         });
         let centre = camera.centre();
-        let cam_rot = rot.inverse();
         let (a, b) = self.refinement_pair(&centre, candidates, refine.bracketing);
         let (a, b) = (&self.sources[a], &self.sources[b]);
         // The frame's depths, read while the colours and depths are rewritten, and the
@@ -871,7 +871,7 @@ impl<'a> Renderer<'a> {
                     // On a mirror, what the nearest source sees reflected the same way, at the
                     // model's surface (the refinement finds no depth where a mirror agrees).
                     let at = centre + dir * f64::from(z);
-                    let (colour, depth) = match self.reflected(&at, &centre, &cam_rot, candidates) {
+                    let (colour, depth) = match self.reflected(&at, &centre, cam_rot, candidates) {
                         Some(c) => (Some(c), z),
                         None => (colour, depth),
                     };

@@ -46,7 +46,29 @@ struct Setup {
     model: VoxelModel,
 }
 
+/// `name` shot from `n` uniform pans, reconstructed by voxel coloring at `resolution`^3 with
+/// the shots' masks as silhouettes.
 fn setup(name: &str, n: usize, resolution: usize) -> Result<Setup, Box<dyn std::error::Error>> {
+    setup_with(name, n, |scene, sources, masks| {
+        Ok(voxel_coloring(
+            &VoxelGrid::with_resolution(scene.bounds(), resolution)?,
+            &kernel_views(sources, masks),
+            &ColoringParams::default(),
+        )?
+        .model)
+    })
+}
+
+/// `name` shot from `n` uniform pans, with the model `model` makes of the scene and its shots.
+fn setup_with(
+    name: &str,
+    n: usize,
+    model: impl FnOnce(
+        &Scene,
+        &[SourceView],
+        &[image::GrayImage],
+    ) -> Result<VoxelModel, Box<dyn std::error::Error>>,
+) -> Result<Setup, Box<dyn std::error::Error>> {
     let scene = catalogue::by_name(name)?;
     let pans = scene.rig.uniform_pans(n);
     let options = RenderOptions {
@@ -61,12 +83,7 @@ fn setup(name: &str, n: usize, resolution: usize) -> Result<Setup, Box<dyn std::
         });
         masks.push(s.frame.mask);
     }
-    let model = voxel_coloring(
-        &VoxelGrid::with_resolution(scene.bounds(), resolution)?,
-        &kernel_views(&sources, &masks),
-        &ColoringParams::default(),
-    )?
-    .model;
+    let model = model(&scene, &sources, &masks)?;
     Ok(Setup {
         scene,
         pans,
@@ -572,29 +589,10 @@ fn the_model_is_filled_before_rendering() -> TestResult {
 /// few pixels at the outline of its model, from 12 views, can pass for a mirror).
 #[test]
 fn mirrors_render_as_reflections_of_the_lab() -> TestResult {
-    let scene = catalogue::by_name("mirror")?;
-    let pans = scene.rig.uniform_pans(48);
-    let options = RenderOptions {
-        noise_sigma: 1.0 / 255.0,
-        seed: 1,
-    };
-    let sources: Vec<SourceView> = scene
-        .shoot(&pans, &options)?
-        .into_iter()
-        .map(|s| SourceView {
-            camera: s.camera,
-            image: s.image,
-        })
-        .collect();
-    let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
-    let model = VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0));
-    let s = Setup {
-        scene,
-        pans,
-        sources,
-        masks: Vec::new(),
-        model,
-    };
+    let s = setup_with("mirror", 48, |scene, _, _| {
+        let grid = VoxelGrid::with_resolution(scene.bounds(), 128)?;
+        Ok(VoxelModel::from_centres(grid, |p| scene.inside(p, 0.0)))
+    })?;
     let with = |reflections: Option<aibr_render::Reflections>| RenderParams {
         reflections,
         ..RenderParams::default()
