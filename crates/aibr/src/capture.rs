@@ -12,7 +12,8 @@ use aibr_consistency::{
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_voxel::{
     CarvingParams, ColoringParams, FaceParams, Reconstruction, RefineStats, TopRefinement, View,
-    VoxelGrid, check_cameras_above, planar_faces, refine_tops, space_carving, voxel_coloring,
+    VoxelGrid, check_cameras_above, planar_faces, refine_tops, space_carving, visual_hull,
+    voxel_coloring,
 };
 use image::GrayImage;
 
@@ -389,7 +390,10 @@ pub fn renderer_for<'m>(
     renderer_with(views, model, RenderParams::default())
 }
 
-/// [`renderer_for`] with other [`RenderParams`] (for example `refine: None`, faster).
+/// [`renderer_for`] with other [`RenderParams`] (for example `refine: None`, faster). With
+/// [`RenderParams::reflections`], the mirrors the model lacks are taken from the visual hull
+/// of the views' masks, the recorded ones or else estimated from the backdrop as for the
+/// reconstruction ([`Renderer::with_visual_hull`]).
 pub fn renderer_with<'m>(
     views: &[LoadedView],
     model: &'m aibr_voxel::VoxelModel,
@@ -402,7 +406,13 @@ pub fn renderer_with<'m>(
             image: v.image.clone(),
         })
         .collect();
-    Ok(Renderer::new(model, sources, params)?)
+    let renderer = Renderer::new(model, sources, params)?;
+    if params.reflections.is_none() {
+        return Ok(renderer);
+    }
+    let masks = masks_of(views)?;
+    let hull = visual_hull(model.grid(), &voxel_views(views, &masks))?;
+    Ok(renderer.with_visual_hull(&hull)?)
 }
 
 /// Runs the capture loop on `rig` into `session` (which may already hold views: the loop

@@ -239,12 +239,13 @@ struct RefineArgs {
     /// sources"). Evenly spread views give the same pair either way.
     #[arg(long, value_enum, default_value_t = RefinePair::Across)]
     refine_pair: RefinePair,
-    /// Render mirrors as reflections: where the model's surface is a mirror, a pixel takes
-    /// what the nearest view sees reflected in the same direction of the lab (the camera and
-    /// the surroundings stay still while the object turns). It needs the mirror's surface in
-    /// the model, which voxel coloring carves away: from the true geometry (--model truth)
-    /// the mirror side of `mirror` renders much better near captured views, from the
-    /// reconstruction hardly differently (docs/render.md, "Mirror reflections").
+    /// Render mirrors as reflections: where the surface is a mirror, a pixel takes what the
+    /// nearest view sees reflected in the same direction of the lab (the camera and the
+    /// surroundings stay still while the object turns). Voxel coloring carves a mirror away,
+    /// so the mirrors the model lacks are taken from the visual hull of the views' masks
+    /// where the surface behind does not explain what the views see (docs/render.md, "Mirror
+    /// reflections"). Near captured views the mirror side renders better; elsewhere nothing
+    /// changes.
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     reflections: OnOff,
 }

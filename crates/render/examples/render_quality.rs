@@ -24,7 +24,8 @@
 //! where the masked PSNR does not look, the ring of 2 pixels outside the true silhouette.
 //! `AT=f` renders the novel views a fraction `f` of the way from each capture to the next
 //! (default 0.5, half-way). `REFLECT=1` turns on [`RenderParams::reflections`] (its
-//! defaults).
+//! defaults), with the mirrors the model lacks taken from the masks' visual hull
+//! ([`Renderer::with_visual_hull`]); `REFLECT=model` without them.
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -112,8 +113,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 })
                 .collect();
             let mut params = RenderParams::default();
-            if std::env::var("REFLECT").is_ok_and(|r| r == "1") {
-                params.reflections = Some(Default::default());
+            let reflect = std::env::var("REFLECT").ok();
+            if let Some(r) = &reflect {
+                params.reflections = match r.as_str() {
+                    "1" | "model" => Some(Default::default()),
+                    "0" => None,
+                    other => return Err(format!("REFLECT={other}: expected 0, 1 or model").into()),
+                };
             }
             if let Some(k) = std::env::var("K").ok().and_then(|k| k.parse().ok()) {
                 params.k = k;
@@ -130,7 +136,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     n => Some(n),
                 };
             }
-            let renderer = Renderer::new(&model, sources, params)?;
+            let mut renderer = Renderer::new(&model, sources, params)?;
+            if reflect.as_deref() == Some("1") {
+                renderer = renderer.with_visual_hull(&aibr_voxel::visual_hull(&grid, &views)?)?;
+            }
             let (mut sum, mut worst, mut ssim_sum, mut geo, mut m) =
                 (0.0, f64::INFINITY, 0.0, 0.0, 0);
             let mut split = edges.then(ErrorSplit::default);

@@ -18,6 +18,12 @@ pub enum Error {
         /// Height expected.
         expected_height: u32,
     },
+    /// A model given beside the renderer's is not on its grid.
+    #[error("{what}: not on the grid of the model rendered")]
+    GridMismatch {
+        /// What was given.
+        what: &'static str,
+    },
     /// A renderer needs at least one source view.
     #[error("no source views")]
     NoSources,

@@ -10,7 +10,7 @@ use nalgebra::{Point2, Point3, Rotation3, Vector3};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::reflection::{MirrorMap, Reflections};
+use crate::reflection::{MirrorLayer, MirrorMap, Reflections};
 
 /// A captured view: a pinhole camera and its image.
 #[derive(Debug, Clone)]
@@ -352,6 +352,18 @@ impl Source {
         ((h[2] - self.depth_at(u, v)).abs() <= tolerance).then_some((u, v))
     }
 
+    /// The point of this source's own surface on its ray through the world point `x`, when `x`
+    /// is on its image and the source has a surface there.
+    pub(crate) fn surface_behind(&self, x: &Point3<f64>) -> Option<Point3<f64>> {
+        let h = self.homogeneous(x);
+        let (u, v) = self.pixel(h)?;
+        let depth = self.depth_at(u, v);
+        // The third homogeneous coordinate is the point's depth along the camera's axis.
+        depth
+            .is_finite()
+            .then(|| self.centre + (x - self.centre) * (depth / h[2]))
+    }
+
     /// The source's own depth at the pixel nearest `(u, v)`, a point on its image (so
     /// `u, v >= 0`: adding a half and truncating rounds them, through `i32`, one instruction on
     /// x86-64 where `usize` takes several).
@@ -473,6 +485,8 @@ pub struct Renderer<'a> {
     splat_margin: f64,
     /// The model's mirrors, with [`RenderParams::reflections`].
     mirrors: Option<MirrorMap>,
+    /// The mirrors the model lacks, from the visual hull ([`Renderer::with_visual_hull`]).
+    layer: Option<MirrorLayer>,
 }
 
 impl<'a> Renderer<'a> {
@@ -554,6 +568,7 @@ impl<'a> Renderer<'a> {
             .reflections
             .map(|r| MirrorMap::new(&model, &surface, &prepared, tolerance, &r));
         Ok(Renderer {
+            layer: None,
             mirrors,
             model,
             sources: prepared,
@@ -563,6 +578,26 @@ impl<'a> Renderer<'a> {
             surface: surface.iter().map(|v| grid.centre(*v)).collect(),
             splat_margin: aibr_voxel::SPLAT_MARGIN_VOXELS * s,
         })
+    }
+
+    /// With [`RenderParams::reflections`], takes the mirrors the model lacks from `hull`, the
+    /// visual hull of the sources' silhouettes on the model's grid (for example
+    /// [`aibr_voxel::visual_hull`]): voxel coloring carves a mirror away, and the hull keeps
+    /// its surface. See [`crate::reflection`] for which of the hull's voxels become mirrors.
+    /// Without reflections the renderer is returned as it is.
+    ///
+    /// # Errors
+    /// [`Error::GridMismatch`] when `hull` is not on the model's grid.
+    pub fn with_visual_hull(mut self, hull: &VoxelModel) -> Result<Self> {
+        if hull.grid() != self.model.grid() {
+            return Err(Error::GridMismatch {
+                what: "visual hull",
+            });
+        }
+        if let Some(params) = &self.params.reflections {
+            self.layer = MirrorLayer::new(&self.model, hull, &self.sources, self.tolerance, params);
+        }
+        Ok(self)
     }
 
     /// The focal point: the centroid of the model's surface voxels.
@@ -1032,8 +1067,10 @@ impl<'a> Renderer<'a> {
     }
 
     /// With [`RenderParams::reflections`], the colour the nearest candidate sees reflected as a
-    /// virtual camera at `eye` (rotation `cam_from_world`) sees the mirror at `p`, if `p` is on
-    /// one and the candidate sees the same direction on it ([`MirrorMap::reflected`]).
+    /// virtual camera at `eye` (rotation `cam_from_world`) sees a mirror: one of the visual
+    /// hull's that the ray to the surface point `p` meets in front of it
+    /// ([`MirrorLayer::reflected`]), or else the model's at `p` ([`MirrorMap::reflected`]); when
+    /// the candidate sees the same direction on that mirror.
     fn reflected(
         &self,
         p: &Point3<f64>,
@@ -1041,9 +1078,16 @@ impl<'a> Renderer<'a> {
         cam_from_world: &Rotation3<f64>,
         candidates: &[(f64, usize)],
     ) -> Option<[u8; 3]> {
-        let mirrors = self.mirrors.as_ref()?;
         let &(_, nearest) = candidates.first()?;
-        mirrors.reflected(p, eye, cam_from_world, &self.sources[nearest])
+        let source = &self.sources[nearest];
+        let from_layer = self
+            .layer
+            .as_ref()
+            .and_then(|layer| layer.reflected(p, eye, cam_from_world, source));
+        from_layer.or_else(|| {
+            let mirrors = self.mirrors.as_ref()?;
+            mirrors.reflected(p, eye, cam_from_world, source)
+        })
     }
 
     /// The unstructured-lumigraph blend of the candidates that see `p`: with `occlusion`, those
