@@ -582,6 +582,26 @@ fn the_model_is_filled_before_rendering() -> TestResult {
     Ok(())
 }
 
+/// How much better (dB) `better` renders than `worse` each novel view of `s`, a shot of
+/// `mirror`, a tenth of the way from a capture to the next, among those that see the mirror's
+/// panel (it faces -x: the views whose camera lies at x < -0.1 m).
+fn panel_side_gains(
+    s: &Setup,
+    better: &Renderer<'_>,
+    worse: &Renderer<'_>,
+) -> Result<Vec<f64>, Box<dyn std::error::Error>> {
+    let mut gains = Vec::new();
+    for pair in s.pans.windows(2) {
+        let pan = pair[0] + (pair[1] - pair[0]) * 0.1;
+        if s.scene.camera(pan)?.centre().x > -0.1 {
+            continue;
+        }
+        gains.push(masked_psnr(s, better, pan)? - masked_psnr(s, worse, pan)?);
+    }
+    eprintln!("gains on the mirror's side: {gains:?}");
+    Ok(gains)
+}
+
 /// `mirror` from its true geometry and 48 uniform views: novel views a tenth of the way from
 /// each capture to the next on the mirror's side render better with the mirror taken as a
 /// reflection than blended at its surface (`render_quality` with `AT=0.1`, every view: 28.40
@@ -599,17 +619,7 @@ fn mirrors_render_as_reflections_of_the_lab() -> TestResult {
     };
     let blended = Renderer::new(&s.model, s.sources.clone(), with(None))?;
     let reflected = Renderer::new(&s.model, s.sources.clone(), with(Some(Default::default())))?;
-    // The captures whose next tenth sees the mirror's panel (the panel faces -x; the views
-    // whose camera lies at x < -0.1 m see it).
-    let mut gains = Vec::new();
-    for pair in s.pans.windows(2) {
-        let pan = pair[0] + (pair[1] - pair[0]) * 0.1;
-        if s.scene.camera(pan)?.centre().x > -0.1 {
-            continue;
-        }
-        gains.push(masked_psnr(&s, &reflected, pan)? - masked_psnr(&s, &blended, pan)?);
-    }
-    eprintln!("gains on the mirror's side: {gains:?}");
+    let gains = panel_side_gains(&s, &reflected, &blended)?;
     assert!(gains.len() >= 8, "{} views see the mirror", gains.len());
     // 3.9 dB on average when this was written; 1.7 dB if the reflected direction is taken as
     // fixed in the world instead of in the lab.
@@ -653,15 +663,7 @@ fn mirrors_the_model_lacks_come_from_the_visual_hull() -> TestResult {
     let hull = hull_of(&s)?;
     let with_hull =
         Renderer::new(&s.model, s.sources.clone(), reflections)?.with_visual_hull(&hull)?;
-    let mut gains = Vec::new();
-    for pair in s.pans.windows(2) {
-        let pan = pair[0] + (pair[1] - pair[0]) * 0.1;
-        if s.scene.camera(pan)?.centre().x > -0.1 {
-            continue;
-        }
-        gains.push(masked_psnr(&s, &with_hull, pan)? - masked_psnr(&s, &alone, pan)?);
-    }
-    eprintln!("gains on the mirror's side: {gains:?}");
+    let gains = panel_side_gains(&s, &with_hull, &alone)?;
     assert!(gains.len() >= 8, "{} views see the mirror", gains.len());
     assert!(mean(&gains) > 1.0, "{gains:?}");
 
