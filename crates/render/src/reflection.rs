@@ -418,36 +418,24 @@ impl MirrorLayer {
 /// grey levels, between its colour at `x` and the colour its angularly nearest neighbour
 /// (within 20 degrees) sees at that point of the surface; the mean (0 when there is none).
 fn see_through_rms(x: &Point3<f64>, sources: &[Source], tolerance: f64) -> f64 {
-    let (mut sum, mut n) = (0.0, 0u32);
-    for (a, source) in sources.iter().enumerate() {
-        let Some((u, v)) = source.sees(x, Some(tolerance)) else {
-            continue;
-        };
-        let Some(behind) = source.surface_behind(x) else {
-            continue;
-        };
+    mean_or_zero(sources.iter().enumerate().filter_map(|(a, source)| {
+        let (u, v) = source.sees(x, Some(tolerance))?;
+        let behind = source.surface_behind(x)?;
         let towards = (source.centre() - x).normalize();
         let cosine = |s: &Source| towards.dot(&(s.centre() - x).normalize());
-        let neighbour = sources
+        let (_, other) = sources
             .iter()
             .enumerate()
             .filter(|&(b, _)| b != a)
             .map(|(_, s)| (cosine(s), s))
             .max_by(|p, q| p.0.total_cmp(&q.0))
-            .filter(|&(c, _)| c >= NEIGHBOUR_COSINE);
-        let Some((_, other)) = neighbour else {
-            continue;
-        };
-        let Some((ub, vb)) = other.sees(&behind, Some(tolerance)) else {
-            continue;
-        };
-        let ca = bilinear(source.image(), u as f32, v as f32);
-        let cb = bilinear(other.image(), ub as f32, vb as f32);
-        let sq: f32 = (0..3).map(|ch| (ca[ch] - cb[ch]).powi(2)).sum();
-        sum += f64::from(sq / 3.0).sqrt();
-        n += 1;
-    }
-    if n == 0 { 0.0 } else { sum / f64::from(n) }
+            .filter(|&(c, _)| c >= NEIGHBOUR_COSINE)?;
+        let (ub, vb) = other.sees(&behind, Some(tolerance))?;
+        Some(rms_difference(
+            &bilinear(source.image(), u as f32, v as f32),
+            &bilinear(other.image(), ub as f32, vb as f32),
+        ))
+    }))
 }
 
 /// How much the colours the `sources` see at `x` differ from those of their angularly nearest
@@ -462,33 +450,27 @@ fn specular_rms(x: &Point3<f64>, sources: &[Source], tolerance: f64) -> f64 {
             Some(((s.centre() - x).normalize(), c))
         })
         .collect();
-    if seen.len() < 2 {
-        return 0.0;
-    }
-    let total: (f64, u32) = seen
-        .iter()
-        .enumerate()
-        .map(|(a, (da, ca))| {
-            let nearest = seen
-                .iter()
-                .enumerate()
-                .filter(|&(b, _)| b != a)
-                .max_by(|(_, (d1, _)), (_, (d2, _))| da.dot(d1).total_cmp(&da.dot(d2)))
-                .filter(|(_, (db, _))| da.dot(db) >= NEIGHBOUR_COSINE);
-            nearest.map(|(_, (_, cb))| {
-                let sq: f32 = (0..3).map(|ch| (ca[ch] - cb[ch]).powi(2)).sum();
-                f64::from(sq / 3.0).sqrt()
-            })
-        })
-        .fold((0.0, 0), |(sum, n), d| match d {
-            Some(d) => (sum + d, n + 1),
-            None => (sum, n),
-        });
-    if total.1 == 0 {
-        0.0
-    } else {
-        total.0 / f64::from(total.1)
-    }
+    mean_or_zero(seen.iter().enumerate().filter_map(|(a, (da, ca))| {
+        let (_, (_, cb)) = seen
+            .iter()
+            .enumerate()
+            .filter(|&(b, _)| b != a)
+            .max_by(|(_, (d1, _)), (_, (d2, _))| da.dot(d1).total_cmp(&da.dot(d2)))
+            .filter(|(_, (db, _))| da.dot(db) >= NEIGHBOUR_COSINE)?;
+        Some(rms_difference(ca, cb))
+    }))
+}
+
+/// The RMS difference of two bilinear samples over red, green and blue, in grey levels.
+fn rms_difference(a: &[f32; 4], b: &[f32; 4]) -> f64 {
+    let sq: f32 = (0..3).map(|ch| (a[ch] - b[ch]).powi(2)).sum();
+    f64::from(sq / 3.0).sqrt()
+}
+
+/// The mean of `values`, 0 when there is none.
+fn mean_or_zero(values: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = values.fold((0.0, 0u32), |(sum, n), v| (sum + v, n + 1));
+    if n == 0 { 0.0 } else { sum / f64::from(n) }
 }
 
 #[cfg(test)]

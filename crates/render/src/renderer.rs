@@ -47,10 +47,11 @@ pub struct RenderParams {
     pub fill: Option<usize>,
     /// Mirror reflections on a turntable (default `None`, off): where the model's surface is
     /// a mirror, a pixel takes the colour the nearest source sees reflected in the same
-    /// direction of the lab ([`crate::reflection`]). It needs the mirror's surface in the
-    /// model: voxel coloring carves a mirror away, so from its models this changes little
-    /// (`docs/render.md`, "Mirror reflections"). The renderer then keeps 4 bytes per voxel of
-    /// the model's grid, and a normal per surface voxel.
+    /// direction of the lab ([`crate::reflection`]). Voxel coloring carves a mirror away: give
+    /// the renderer the visual hull ([`Renderer::with_visual_hull`]) to take the mirrors its
+    /// models lack from it (`docs/render.md`, "Mirror reflections"). The renderer then keeps 4
+    /// bytes per voxel of the model's grid, and a normal per surface voxel (with the hull's
+    /// mirrors, 8 bytes more per voxel).
     pub reflections: Option<Reflections>,
 }
 
