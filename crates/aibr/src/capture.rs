@@ -399,6 +399,20 @@ pub fn renderer_with<'m>(
     model: &'m aibr_voxel::VoxelModel,
     params: RenderParams,
 ) -> Result<Renderer<'m>> {
+    if params.reflections.is_none() {
+        return renderer_with_masks(views, &[], model, params);
+    }
+    renderer_with_masks(views, &masks_of(views)?, model, params)
+}
+
+/// [`renderer_with`] with the views' masks already at hand (read only with
+/// [`RenderParams::reflections`], for the visual hull).
+pub(crate) fn renderer_with_masks<'m>(
+    views: &[LoadedView],
+    masks: &[GrayImage],
+    model: &'m aibr_voxel::VoxelModel,
+    params: RenderParams,
+) -> Result<Renderer<'m>> {
     let sources = views
         .iter()
         .map(|v| SourceView {
@@ -410,8 +424,7 @@ pub fn renderer_with<'m>(
     if params.reflections.is_none() {
         return Ok(renderer);
     }
-    let masks = masks_of(views)?;
-    let hull = visual_hull(model.grid(), &voxel_views(views, &masks))?;
+    let hull = visual_hull(model.grid(), &voxel_views(views, masks))?;
     Ok(renderer.with_visual_hull(&hull)?)
 }
 

@@ -16,7 +16,8 @@ use aibr_voxel::{
 use image::{GrayImage, RgbImage};
 
 use crate::capture::{
-    CaptureParams, Strategy, VOXEL_COLORING, capture, reconstruct_views, renderer_with, voxel_views,
+    CaptureParams, Strategy, VOXEL_COLORING, capture, reconstruct_views, renderer_with_masks,
+    voxel_views,
 };
 use crate::error::{Error, Result};
 use crate::replay::ReplayRig;
@@ -626,7 +627,7 @@ fn measure<R: EvalRig>(
         }
     };
     let score = reference.map(|r| geometry_score(&model, &r.exposed, &r.visible));
-    let renderer = renderer_with(views, &model, params.render)?;
+    let renderer = renderer_with_masks(views, &masks, &model, params.render)?;
     let mut pans: Vec<Angle> = views
         .iter()
         .map(|v| Angle::from_radians(v.record.pan_rad))
