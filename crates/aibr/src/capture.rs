@@ -399,13 +399,14 @@ pub fn renderer_with<'m>(
     model: &'m aibr_voxel::VoxelModel,
     params: RenderParams,
 ) -> Result<Renderer<'m>> {
-    if params.reflections.is_none() {
-        return renderer_with_masks(views, &[], model, params);
-    }
-    renderer_with_masks(views, &masks_of(views)?, model, params)
+    let masks = match params.reflections {
+        Some(_) => masks_of(views)?,
+        None => Vec::new(),
+    };
+    renderer_with_masks(views, &masks, model, params)
 }
 
-/// [`renderer_with`] with the views' masks already at hand (read only with
+/// [`renderer_with`] with the views' masks already at hand, one per view (read only with
 /// [`RenderParams::reflections`], for the visual hull).
 pub(crate) fn renderer_with_masks<'m>(
     views: &[LoadedView],
