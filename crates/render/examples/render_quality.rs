@@ -25,7 +25,8 @@
 //! `AT=f` renders the novel views a fraction `f` of the way from each capture to the next
 //! (default 0.5, half-way). `REFLECT=1` turns on [`RenderParams::reflections`] (its
 //! defaults), with the mirrors the model lacks taken from the masks' visual hull
-//! ([`Renderer::with_visual_hull`]); `REFLECT=model` without them.
+//! ([`Renderer::with_visual_hull`]); `REFLECT=model` without them. `SPECULAR=g` sets their
+//! `specular_rms` (grey levels).
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -120,6 +121,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     "0" => None,
                     other => return Err(format!("REFLECT={other}: expected 0, 1 or model").into()),
                 };
+            }
+            if let Ok(g) = std::env::var("SPECULAR") {
+                let g: f64 = g.parse().map_err(|e| format!("SPECULAR={g}: {e}"))?;
+                if let Some(r) = &mut params.reflections {
+                    r.specular_rms = g;
+                }
             }
             if let Some(k) = std::env::var("K").ok().and_then(|k| k.parse().ok()) {
                 params.k = k;
