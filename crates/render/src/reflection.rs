@@ -418,18 +418,14 @@ impl MirrorLayer {
 /// grey levels, between its colour at `x` and the colour its angularly nearest neighbour
 /// (within 20 degrees) sees at that point of the surface; the mean (0 when there is none).
 fn see_through_rms(x: &Point3<f64>, sources: &[Source], tolerance: f64) -> f64 {
+    let towards: Vec<Vector3<f64>> = sources
+        .iter()
+        .map(|s| (s.centre() - x).normalize())
+        .collect();
     mean_or_zero(sources.iter().enumerate().filter_map(|(a, source)| {
         let (u, v) = source.sees(x, Some(tolerance))?;
         let behind = source.surface_behind(x)?;
-        let towards = (source.centre() - x).normalize();
-        let cosine = |s: &Source| towards.dot(&(s.centre() - x).normalize());
-        let (_, other) = sources
-            .iter()
-            .enumerate()
-            .filter(|&(b, _)| b != a)
-            .map(|(_, s)| (cosine(s), s))
-            .max_by(|p, q| p.0.total_cmp(&q.0))
-            .filter(|&(c, _)| c >= NEIGHBOUR_COSINE)?;
+        let other = &sources[angular_neighbour(&towards, a)?];
         let (ub, vb) = other.sees(&behind, Some(tolerance))?;
         Some(rms_difference(
             &bilinear(source.image(), u as f32, v as f32),
@@ -442,23 +438,31 @@ fn see_through_rms(x: &Point3<f64>, sources: &[Source], tolerance: f64) -> f64 {
 /// neighbour among them, when that lies within 20 degrees: the mean over such pairs of the RMS
 /// difference over the channels, in grey levels (0 when there is none).
 fn specular_rms(x: &Point3<f64>, sources: &[Source], tolerance: f64) -> f64 {
-    let seen: Vec<(Vector3<f64>, [f32; 4])> = sources
+    let (towards, colours): (Vec<Vector3<f64>>, Vec<[f32; 4]>) = sources
         .iter()
         .filter_map(|s| {
             let (u, v) = s.sees(x, Some(tolerance))?;
             let c = bilinear(s.image(), u as f32, v as f32);
             Some(((s.centre() - x).normalize(), c))
         })
-        .collect();
-    mean_or_zero(seen.iter().enumerate().filter_map(|(a, (da, ca))| {
-        let (_, (_, cb)) = seen
-            .iter()
-            .enumerate()
-            .filter(|&(b, _)| b != a)
-            .max_by(|(_, (d1, _)), (_, (d2, _))| da.dot(d1).total_cmp(&da.dot(d2)))
-            .filter(|(_, (db, _))| da.dot(db) >= NEIGHBOUR_COSINE)?;
-        Some(rms_difference(ca, cb))
+        .unzip();
+    mean_or_zero((0..colours.len()).filter_map(|a| {
+        let b = angular_neighbour(&towards, a)?;
+        Some(rms_difference(&colours[a], &colours[b]))
     }))
+}
+
+/// The index of the direction among `towards` angularly nearest `towards[a]` (the largest
+/// cosine; the last of equals), when it lies within 20 degrees of it.
+fn angular_neighbour(towards: &[Vector3<f64>], a: usize) -> Option<usize> {
+    towards
+        .iter()
+        .enumerate()
+        .filter(|&(b, _)| b != a)
+        .map(|(b, d)| (towards[a].dot(d), b))
+        .max_by(|p, q| p.0.total_cmp(&q.0))
+        .filter(|&(cosine, _)| cosine >= NEIGHBOUR_COSINE)
+        .map(|(_, b)| b)
 }
 
 /// The RMS difference of two bilinear samples over red, green and blue, in grey levels.
