@@ -26,7 +26,7 @@
 //! (default 0.5, half-way). `REFLECT=1` turns on [`RenderParams::reflections`] (its
 //! defaults), with the mirrors the model lacks taken from the masks' visual hull
 //! ([`Renderer::with_visual_hull`]); `REFLECT=model` without them. `SPECULAR=g` sets their
-//! `specular_rms` (grey levels).
+//! `specular_rms` (grey levels; only with `REFLECT`).
 
 use aibr_camera::Angle;
 use aibr_render::{RenderParams, Renderer, SourceView, metrics};
@@ -123,10 +123,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 };
             }
             if let Ok(g) = std::env::var("SPECULAR") {
-                let g: f64 = g.parse().map_err(|e| format!("SPECULAR={g}: {e}"))?;
-                if let Some(r) = &mut params.reflections {
-                    r.specular_rms = g;
-                }
+                let Some(r) = &mut params.reflections else {
+                    return Err(format!("SPECULAR={g} needs REFLECT=1 or REFLECT=model").into());
+                };
+                r.specular_rms = g.parse().map_err(|e| format!("SPECULAR={g}: {e}"))?;
             }
             if let Some(k) = std::env::var("K").ok().and_then(|k| k.parse().ok()) {
                 params.k = k;
