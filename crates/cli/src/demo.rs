@@ -28,6 +28,8 @@ pub(crate) struct DemoArgs {
     /// A smaller run (6 -> 12 views, coarse grids) that finishes in seconds: for tests.
     #[arg(long)]
     quick: bool,
+    #[command(flatten)]
+    refine: crate::RefineArgs,
 }
 
 struct Setup {
@@ -416,7 +418,11 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     let start = Instant::now();
     check_out(&a.out)?;
     let rig = SimRig::new(&a.scene).with_context(|| format!("--scene {:?}", a.scene))?;
-    let Setup { params, model_grid } = setup(a.quick);
+    let Setup {
+        mut params,
+        model_grid,
+    } = setup(a.quick);
+    params.render = a.refine.render_params();
     let sessions = a.out.join("sessions");
     std::fs::create_dir_all(&sessions)
         .with_context(|| format!("creating {}", sessions.display()))?;
@@ -484,11 +490,11 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     let renderers = [
         (
             "active",
-            aibr::renderer_for(&active_views, &active_model.model)?,
+            aibr::renderer_with(&active_views, &active_model.model, params.render)?,
         ),
         (
             "uniform",
-            aibr::renderer_for(&uniform_views, &uniform_model.model)?,
+            aibr::renderer_with(&uniform_views, &uniform_model.model, params.render)?,
         ),
     ];
     let mut panels = String::new();
@@ -565,8 +571,8 @@ novel views' PSNRs; <i>pooled PSNR</i> is the PSNR of their mean squared error, 
 that render worst (on a mirror, say) weigh the most. <i>Model accuracy</i> is the distance
 within which 90% of the model's surface voxels lie from the true surface, <i>completeness</i>
 the share of the visible true surface within 1.5 voxels of the model: renders follow the
-geometry, and which views are taken changes it. Made by <code>aibr demo</code> in
-{elapsed:.0} s.</p>
+geometry, and which views are taken changes it. {renderer} Made by <code>aibr demo</code>
+in {elapsed:.0} s.</p>
 <p>One run measures one placement of the object on the turntable, and on <code>mirror</code>
 that alone can favour either strategy by a decibel at 24 and 36 views: <code>aibr eval --rig
 sim:{scene} --turns 0:27.5:2.5 --arc 20:160</code> measures
@@ -599,6 +605,7 @@ window.addEventListener('load', () => {{
         initial = params.capture.initial,
         step = params.step.degrees(),
         grid = params.grid,
+        renderer = a.refine.describe(),
     );
     let index = a.out.join("index.html");
     write(&index, html.as_bytes())?;

@@ -74,6 +74,27 @@ fn the_demo_writes_only_into_its_own_report_folder() -> TestResult {
     };
     assert_eq!(figures(&again), figures(&first));
     assert!(figures(&first).is_some());
+    assert!(first.contains("--reflections off"), "{first}");
+
+    // The renderer's options reach both the measured novel views and the page's renders: on
+    // `mirror` reflections change the table and at least one render, and the page says so.
+    let renders = |dir: &Path| -> std::io::Result<Vec<Vec<u8>>> {
+        ["active", "uniform"]
+            .iter()
+            .flat_map(|s| (0..2).map(move |k| dir.join(format!("{s}-{k}.png"))))
+            .map(std::fs::read)
+            .collect()
+    };
+    let before = renders(&out)?;
+    let reflected = aibr()
+        .args(["demo", "--quick", "--reflections", "on", "--out"])
+        .arg(&out)
+        .output()?;
+    assert_success(&reflected);
+    let with = std::fs::read_to_string(&page)?;
+    assert!(with.contains("--reflections on"), "{with}");
+    assert_ne!(figures(&with), figures(&first));
+    assert_ne!(renders(&out)?, before);
     let _ = std::fs::remove_dir_all(&out);
     Ok(())
 }
