@@ -22,7 +22,8 @@
 //! the renderer is made: each surface voxel's normal is the least direction
 //! of the surface voxels around it; it is a mirror when the colours the sources see at it
 //! differ from those of their angularly nearest neighbour (within 20 degrees) by more than a
-//! threshold.
+//! threshold, and a share of the surface voxels around it do too (a mirror is a surface: on a
+//! matte object the views disagree on scattered voxels where the model is wrong).
 //!
 //! Voxel coloring carves a mirror away, since no two views agree on it, and leaves a dent
 //! whose floor renders as a blur of reflections. Given the visual hull
@@ -58,6 +59,13 @@ pub struct Reflections {
     /// as a mean RMS over the channels in grey levels (default 40; a matte surface seen
     /// where the model is right differs by a few grey levels).
     pub specular_rms: f64,
+    /// A voxel that passes `specular_rms` stays a mirror only when at least this share of the
+    /// model's surface voxels within `normal_radius` of it pass too (default 1/3; 0 keeps every
+    /// one). A mirror is a surface, not a speck: where the model is wrong on a matte object
+    /// (a fat edge, a silhouette) the views disagree on scattered voxels, which this drops,
+    /// while the voxels of a mirror's face pass together. Applies to the model's own voxels;
+    /// the visual hull's candidates have their own second test.
+    pub mirror_share: f64,
     /// Radius in voxels of the surface voxels around a voxel that its normal is fitted to
     /// (default 3; 1 to 8).
     pub normal_radius: usize,
@@ -80,6 +88,7 @@ impl Default for Reflections {
     fn default() -> Self {
         Reflections {
             specular_rms: 40.0,
+            mirror_share: 1.0 / 3.0,
             normal_radius: 3,
             reach_voxels: 60.0,
             hull_gap_voxels: 3,
@@ -96,6 +105,13 @@ impl Reflections {
                 name: "reflections.specular_rms",
                 value: self.specular_rms,
                 reason: "grey levels, finite and not negative",
+            });
+        }
+        if !(0.0..=1.0).contains(&self.mirror_share) {
+            return Err(Error::InvalidParameter {
+                name: "reflections.mirror_share",
+                value: self.mirror_share,
+                reason: "a share, from 0 to 1",
             });
         }
         if !(1..=8).contains(&self.normal_radius) {
@@ -167,13 +183,34 @@ impl MirrorMap {
         tolerance: f64,
         params: &Reflections,
     ) -> Self {
-        let mirror = surface
+        let passed = surface
             .par_iter()
             .map(|&v| {
                 specular_rms(&model.grid().centre(v), sources, tolerance) > params.specular_rms
             })
             .collect();
-        Self::with_mirrors(model.grid(), surface, mirror, tolerance, params, false)
+        let map = Self::with_mirrors(model.grid(), surface, passed, tolerance, params, false);
+        let mirror = map.mirrors_in_company(surface, params);
+        MirrorMap { mirror, ..map }
+    }
+
+    /// Which of the `surface` voxels (the map's, in its order) stay mirrors: those that are,
+    /// with at least `params.mirror_share` of the surface voxels within `params.normal_radius`
+    /// of them (themselves included).
+    fn mirrors_in_company(&self, surface: &[[usize; 3]], params: &Reflections) -> Vec<bool> {
+        let r = params.normal_radius as i64;
+        surface
+            .par_iter()
+            .zip(&self.mirror)
+            .map(|(&v, &mirror)| {
+                let (mut around, mut mirrors) = (0u32, 0u32);
+                for (_, s) in self.surface_around(v, r) {
+                    around += 1;
+                    mirrors += u32::from(self.mirror[s]);
+                }
+                mirror && f64::from(mirrors) >= params.mirror_share * f64::from(around)
+            })
+            .collect()
     }
 
     /// The map of the `surface` voxels of a grid, `mirror` telling which are mirrors.
@@ -222,23 +259,27 @@ impl MirrorMap {
         (s != u32::MAX).then_some(s as usize)
     }
 
+    /// The surface voxels within `r` voxels of `[i, j, k]` (itself included): each one's
+    /// offset from it and its slot.
+    fn surface_around(
+        &self,
+        [i, j, k]: [usize; 3],
+        r: i64,
+    ) -> impl Iterator<Item = (Vector3<f64>, usize)> + '_ {
+        let span = move || -r..=r;
+        span()
+            .flat_map(move |dk| span().flat_map(move |dj| span().map(move |di| (di, dj, dk))))
+            .filter(move |(di, dj, dk)| di * di + dj * dj + dk * dk <= r * r)
+            .filter_map(move |(di, dj, dk)| {
+                let s = self.slot_at(i as i64 + di, j as i64 + dj, k as i64 + dk)?;
+                Some((Vector3::new(di as f64, dj as f64, dk as f64), s))
+            })
+    }
+
     /// The least direction of the surface voxels within `r` voxels of `v` (the normal of the
     /// plane they fit best); a zero vector where they span no plane.
-    fn fitted_normal(&self, [i, j, k]: [usize; 3], r: i64) -> Vector3<f64> {
-        let mut offsets = Vec::new();
-        for dk in -r..=r {
-            for dj in -r..=r {
-                for di in -r..=r {
-                    if di * di + dj * dj + dk * dk > r * r {
-                        continue;
-                    }
-                    let (a, b, c) = (i as i64 + di, j as i64 + dj, k as i64 + dk);
-                    if self.slot_at(a, b, c).is_some() {
-                        offsets.push(Vector3::new(di as f64, dj as f64, dk as f64));
-                    }
-                }
-            }
-        }
+    fn fitted_normal(&self, v: [usize; 3], r: i64) -> Vector3<f64> {
+        let offsets: Vec<Vector3<f64>> = self.surface_around(v, r).map(|(o, _)| o).collect();
         if offsets.len() < 3 {
             return Vector3::zeros();
         }
@@ -495,6 +536,18 @@ mod tests {
                 ..Default::default()
             },
             Reflections {
+                mirror_share: f64::NAN,
+                ..Default::default()
+            },
+            Reflections {
+                mirror_share: -0.1,
+                ..Default::default()
+            },
+            Reflections {
+                mirror_share: 1.5,
+                ..Default::default()
+            },
+            Reflections {
                 normal_radius: 0,
                 ..Default::default()
             },
@@ -559,6 +612,42 @@ mod tests {
         assert!(checked > 100, "{checked}");
         assert!(map.mirror.iter().all(|&m| !m));
         assert_eq!(map.mirror_at(&centre), None);
+        Ok(())
+    }
+    /// A mirror is a surface: a patch of voxels that pass the colour test stays, a voxel that
+    /// passes alone on a matte surface (as where the model is wrong) does not.
+    #[test]
+    fn a_mirror_needs_mirrors_around_it() -> Result<(), Box<dyn std::error::Error>> {
+        let bounds = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 1.0, 1.0))?;
+        let grid = VoxelGrid::with_resolution(bounds, 40)?;
+        // A slab one voxel thick, its top and bottom the surface.
+        let model = VoxelModel::from_centres(grid, |p| (p.z - 0.5).abs() < 0.6 * grid.voxel_size());
+        let surface = model.surface_voxels();
+        // A 10 x 10 patch passes the colour test, and one voxel far from it.
+        let patch = |[i, j, _]: [usize; 3]| (10..20).contains(&i) && (10..20).contains(&j);
+        let speck = |[i, j, _]: [usize; 3]| i == 30 && j == 30;
+        let passed: Vec<bool> = surface.iter().map(|&v| patch(v) || speck(v)).collect();
+        let params = Reflections::default();
+        let map = MirrorMap::with_mirrors(&grid, &surface, passed.clone(), 0.0, &params, false);
+
+        let kept = map.mirrors_in_company(&surface, &params);
+        for ((&v, &p), &k) in surface.iter().zip(&passed).zip(&kept) {
+            let [i, j, _] = v;
+            // Within a voxel of the patch's edge a third of the neighbourhood is still mirror.
+            let inside = (11..19).contains(&i) && (11..19).contains(&j);
+            if speck(v) || !p {
+                assert!(!k, "{v:?} kept");
+            } else if inside {
+                assert!(k, "{v:?} dropped");
+            }
+        }
+        assert!(surface.iter().any(|&v| speck(v)));
+        // With no share asked for, every voxel that passed stays.
+        let all = Reflections {
+            mirror_share: 0.0,
+            ..params
+        };
+        assert_eq!(map.mirrors_in_company(&surface, &all), passed);
         Ok(())
     }
 }
