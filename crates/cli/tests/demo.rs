@@ -76,8 +76,9 @@ fn the_demo_writes_only_into_its_own_report_folder() -> TestResult {
     assert!(figures(&first).is_some());
     assert!(first.contains("--reflections off"), "{first}");
 
-    // The renderer's options reach both the measured novel views and the page's renders: on
-    // `mirror` reflections change the table and at least one render, and the page says so.
+    // The renderer's options reach both the measured novel views and the page's renders, and
+    // the page says which were taken. (At the quick settings reflections alone change the
+    // table but no render the page shows; a deeper refinement changes both.)
     let renders = |dir: &Path| -> std::io::Result<Vec<Vec<u8>>> {
         ["active", "uniform"]
             .iter()
@@ -86,15 +87,27 @@ fn the_demo_writes_only_into_its_own_report_folder() -> TestResult {
             .collect()
     };
     let before = renders(&out)?;
-    let reflected = aibr()
-        .args(["demo", "--quick", "--reflections", "on", "--out"])
+    let other = aibr()
+        .args([
+            "demo",
+            "--quick",
+            "--reflections",
+            "on",
+            "--reach",
+            "6",
+            "--out",
+        ])
         .arg(&out)
         .output()?;
-    assert_success(&reflected);
+    assert_success(&other);
     let with = std::fs::read_to_string(&page)?;
     assert!(with.contains("--reflections on"), "{with}");
+    assert!(with.contains("up to 6 voxels"), "{with}");
     assert_ne!(figures(&with), figures(&first));
-    assert_ne!(renders(&out)?, before);
+    assert!(
+        renders(&out)? != before,
+        "the page's renders did not change with the renderer's options"
+    );
     let _ = std::fs::remove_dir_all(&out);
     Ok(())
 }
