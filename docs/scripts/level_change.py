@@ -1,0 +1,76 @@
+#!/usr/bin/env python3
+"""How far one `aibr eval --turns ... --json` run's levels moved from another's, placement by placement.
+
+    python3 docs/scripts/level_change.py A.json B.json
+
+Both files are `aibr eval --turns` JSON of the same scene, typically the same captures rendered
+two ways (say with and without `--reflections on`). For each strategy and checkpoint it prints
+each run's mean masked PSNR (mean over the turns both hold), the mean of A - B over the turns,
+the turn where A fell furthest below B and where it rose most, and the same means on the
+object's arc (`--arc`; NaN without it); then each run's active - uniform over the turns. This is
+how docs/results.md, "Session 49" and "Session 50", say how far an option moved the levels.
+"""
+import json
+import math
+import sys
+
+
+def load(path):
+    """The document and its checkpoints by (turn, strategy, views)."""
+    try:
+        with open(path) as f:
+            doc = json.load(f)
+    except (OSError, json.JSONDecodeError) as e:
+        sys.exit(f"{path}: {e}")
+    if "turns" not in doc:
+        sys.exit(f"{path}: not an `aibr eval --turns` JSON (no 'turns')")
+    out = {}
+    for t in doc["turns"]:
+        for r in t["results"]:
+            for c in r["checkpoints"]:
+                out[(t["turn_deg"], r["strategy"], c["views"])] = c
+    return doc, out
+
+
+def on_arc(c):
+    """The checkpoint's mean masked PSNR on the arc, NaN without one."""
+    arc = c.get("arc") or {}
+    return arc.get("on_arc", {}).get("mean_masked_psnr_db", math.nan)
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit(__doc__)
+    doc_a, a = load(sys.argv[1])
+    doc_b, b = load(sys.argv[2])
+    keys = sorted(set(a) & set(b))
+    if not keys:
+        sys.exit("the two runs share no (turn, strategy, views)")
+    print(f"{len({k[0] for k in keys})} turns in common")
+    for strategy in ("active", "uniform"):
+        for views in sorted({k[2] for k in keys}):
+            ks = [k for k in keys if k[1] == strategy and k[2] == views]
+            if not ks:
+                continue
+            mean = lambda xs: sum(xs) / len(xs)
+            la = mean([a[k]["mean_masked_psnr_db"] for k in ks])
+            lb = mean([b[k]["mean_masked_psnr_db"] for k in ks])
+            d = [(a[k]["mean_masked_psnr_db"] - b[k]["mean_masked_psnr_db"], k[0]) for k in ks]
+            arc_a = mean([on_arc(a[k]) for k in ks])
+            arc_b = mean([on_arc(b[k]) for k in ks])
+            print(
+                f"{strategy:8s} {views:3d}: A {la:.3f} B {lb:.3f}, A - B {mean([x for x, _ in d]):+.4f}"
+                f" (lowest {min(d)[0]:+.4f} at turn {min(d)[1]}, highest {max(d)[0]:+.4f}"
+                f" at turn {max(d)[1]}) | on the arc A {arc_a:.3f} B {arc_b:.3f} ({arc_a - arc_b:+.3f})"
+            )
+    for name, doc in (("A", doc_a), ("B", doc_b)):
+        leads = [
+            f"{m['views']}: {m['mean_masked_psnr_db']['mean']:+.2f} +- "
+            f"{m['mean_masked_psnr_db']['standard_error']:.2f}"
+            for m in doc.get("active_minus_uniform", [])
+        ]
+        print(f"{name} active - uniform: " + ", ".join(leads))
+
+
+if __name__ == "__main__":
+    main()
