@@ -7,29 +7,23 @@ Both files are `aibr eval --turns` JSON of the same scene, typically the same ca
 two ways (say with and without `--reflections on`). For each strategy and checkpoint it prints
 each run's mean masked PSNR (mean over the turns both hold), the mean of A - B over the turns,
 the turn where A fell furthest below B and where it rose most, and the same means on the
-object's arc (`--arc`; NaN without it); then each run's active - uniform over the turns. This is
+object's arc (`--arc`; NaN without it). (`compare_turns.py` prints the leads.) This is
 how docs/results.md, "Session 49" and "Session 50", say how far an option moved the levels.
 """
-import json
 import math
 import sys
 
+from compare_turns import load_turns
+
 
 def load(path):
-    """The document and its checkpoints by (turn, strategy, views)."""
-    try:
-        with open(path) as f:
-            doc = json.load(f)
-    except (OSError, json.JSONDecodeError) as e:
-        sys.exit(f"{path}: {e}")
-    if "turns" not in doc:
-        sys.exit(f"{path}: not an `aibr eval --turns` JSON (no 'turns')")
-    out = {}
-    for t in doc["turns"]:
-        for r in t["results"]:
-            for c in r["checkpoints"]:
-                out[(t["turn_deg"], r["strategy"], c["views"])] = c
-    return doc, out
+    """The checkpoints of an `aibr eval --turns` JSON by (turn, strategy, views)."""
+    return {
+        (turn, r["strategy"], c["views"]): c
+        for turn, results in load_turns(path).items()
+        for r in results
+        for c in r["checkpoints"]
+    }
 
 
 def on_arc(c):
@@ -41,8 +35,8 @@ def on_arc(c):
 def main():
     if len(sys.argv) != 3:
         sys.exit(__doc__)
-    doc_a, a = load(sys.argv[1])
-    doc_b, b = load(sys.argv[2])
+    a = load(sys.argv[1])
+    b = load(sys.argv[2])
     keys = sorted(set(a) & set(b))
     if not keys:
         sys.exit("the two runs share no (turn, strategy, views)")
@@ -63,13 +57,6 @@ def main():
                 f" (lowest {min(d)[0]:+.4f} at turn {min(d)[1]}, highest {max(d)[0]:+.4f}"
                 f" at turn {max(d)[1]}) | on the arc A {arc_a:.3f} B {arc_b:.3f} ({arc_a - arc_b:+.3f})"
             )
-    for name, doc in (("A", doc_a), ("B", doc_b)):
-        leads = [
-            f"{m['views']}: {m['mean_masked_psnr_db']['mean']:+.2f} +- "
-            f"{m['mean_masked_psnr_db']['standard_error']:.2f}"
-            for m in doc.get("active_minus_uniform", [])
-        ]
-        print(f"{name} active - uniform: " + ", ".join(leads))
 
 
 if __name__ == "__main__":
