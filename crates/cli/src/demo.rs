@@ -413,6 +413,41 @@ fn check_out(out: &Path) -> Result<()> {
     )
 }
 
+/// One sentence for the report page (HTML) saying how `params` render the novel views.
+fn describe_renderer(params: &aibr::render::RenderParams) -> String {
+    let depth = match params.refine {
+        Some(r) => {
+            let penalty = if r.penalty > 0.0 {
+                format!(", penalised by {} a voxel beyond 4", r.penalty)
+            } else {
+                String::new()
+            };
+            let pair = if r.bracketing {
+                "the nearest source with the nearest across the novel view"
+            } else {
+                "the two nearest sources"
+            };
+            format!(
+                "with each pixel's depth refined by photo-consistency up to {} voxels behind \
+                 the model's surface in {} depths{penalty}, comparing {pair}",
+                r.back_voxels, r.steps
+            )
+        }
+        None => "at the model's surface".to_owned(),
+    };
+    let mirrors = if params.reflections.is_some() {
+        "as reflections (<code>--reflections on</code>)"
+    } else {
+        "in the colours the model holds (<code>--reflections off</code>)"
+    };
+    let defaults = if *params == aibr::render::RenderParams::default() {
+        " These are the renderer's defaults."
+    } else {
+        ""
+    };
+    format!("The novel views are rendered {depth}, and mirrors {mirrors}.{defaults}")
+}
+
 /// Runs the demo and writes the report; returns the path of `index.html`.
 pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
     let start = Instant::now();
@@ -605,7 +640,7 @@ window.addEventListener('load', () => {{
         initial = params.capture.initial,
         step = params.step.degrees(),
         grid = params.grid,
-        renderer = a.refine.describe(),
+        renderer = describe_renderer(&params.render),
     );
     let index = a.out.join("index.html");
     write(&index, html.as_bytes())?;

@@ -275,42 +275,6 @@ impl RefineArgs {
         params
     }
 
-    /// One sentence for a report page (HTML) saying how the novel views are rendered.
-    fn describe(&self) -> String {
-        let params = self.render_params();
-        let depth = match params.refine {
-            Some(r) => {
-                let penalty = if r.penalty > 0.0 {
-                    format!(", penalised by {} a voxel beyond 4", r.penalty)
-                } else {
-                    String::new()
-                };
-                let pair = if r.bracketing {
-                    "the nearest source with the nearest across the novel view"
-                } else {
-                    "the two nearest sources"
-                };
-                format!(
-                    "with each pixel's depth refined by photo-consistency up to {} voxels behind \
-                     the model's surface in {} depths{penalty}, comparing {pair}",
-                    r.back_voxels, r.steps
-                )
-            }
-            None => "at the model's surface".to_owned(),
-        };
-        let mirrors = if params.reflections.is_some() {
-            "as reflections (<code>--reflections on</code>)"
-        } else {
-            "in the colours the model holds (<code>--reflections off</code>)"
-        };
-        let defaults = if params == aibr::render::RenderParams::default() {
-            " These are the renderer's defaults."
-        } else {
-            ""
-        };
-        format!("The novel views are rendered {depth}, and mirrors {mirrors}.{defaults}")
-    }
-
     /// Records the search the renderer takes in a JSON object: `reach_voxels`,
     /// `refine_steps`, `reach_penalty` and `refine_pair` (null without the refinement), and
     /// `reflections` (true or false).
