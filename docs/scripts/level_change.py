@@ -26,6 +26,11 @@ def load(path):
     }
 
 
+def mean(xs):
+    """The mean of a non-empty list."""
+    return sum(xs) / len(xs)
+
+
 def on_arc(c):
     """The checkpoint's mean masked PSNR on the arc, NaN without one."""
     arc = c.get("arc") or {}
@@ -46,7 +51,6 @@ def main():
             ks = [k for k in keys if k[1] == strategy and k[2] == views]
             if not ks:
                 continue
-            mean = lambda xs: sum(xs) / len(xs)
             la = mean([a[k]["mean_masked_psnr_db"] for k in ks])
             lb = mean([b[k]["mean_masked_psnr_db"] for k in ks])
             d = [(a[k]["mean_masked_psnr_db"] - b[k]["mean_masked_psnr_db"], k[0]) for k in ks]
