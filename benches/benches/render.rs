@@ -1,13 +1,15 @@
 //! Renderer bench (group `render`, entry `vga`): a 640x480 frame from 48 views of `lambertian`
 //! and its 128^3 model, half-way between two captures, into preallocated buffers; entry
-//! `vga_unrefined` renders the same frame without the depth refinement.
+//! `vga_unrefined` renders the same frame without the depth refinement. Group `metrics`,
+//! entries `psnr` and `ssim`: that frame against the scene's ground truth, inside the
+//! object's mask, as `aibr eval` measures every novel view.
 //!
 //! `cargo bench -p aibr-benches --bench render`
 
 // criterion's macros generate undocumented public items.
 #![allow(missing_docs)]
 
-use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
+use aibr_render::{RenderParams, RenderedView, Renderer, SourceView, metrics};
 use aibr_scene::{RenderOptions, catalogue};
 use aibr_voxel::{ColoringParams, VoxelGrid, voxel_coloring};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -58,6 +60,23 @@ fn bench(c: &mut Criterion) {
             b.iter(|| unrefined.render_into(&camera, &mut buffers))
         });
     }
+    g.finish();
+
+    let Ok(truth) = scene.render(&camera, &RenderOptions::default()) else {
+        return;
+    };
+    let truth_rgb = truth.rgb8();
+    if renderer.render_into(&camera, &mut buffers).is_err() {
+        return;
+    }
+    let mut g = c.benchmark_group("metrics");
+    g.throughput(Throughput::Elements(640 * 480));
+    g.bench_function("psnr", |b| {
+        b.iter(|| metrics::psnr(&truth_rgb, &buffers.rgb, Some(&truth.mask)))
+    });
+    g.bench_function("ssim", |b| {
+        b.iter(|| metrics::ssim(&truth_rgb, &buffers.rgb, Some(&truth.mask)))
+    });
     g.finish();
 }
 

@@ -150,12 +150,17 @@ fn blur(ch: &Channel<'_>, map: Map, kernel: &[f64], win: Window) -> Vec<f64> {
     let cw = win.x1 - win.x0;
     // Horizontal pass over the rows the vertical pass reads.
     let (ty0, ty1) = (win.y0.saturating_sub(r), (win.y1 + r).min(h));
+    // The map's values along a row, `r` either side of the window, edges replicated: output
+    // `j` reads `line[j..j + kernel.len()]`, tap by tap over the whole row.
+    let mut line = vec![0.0; cw + 2 * r];
     let mut tmp = vec![0.0; cw * (ty1 - ty0)];
     for (y, row) in (ty0..ty1).zip(tmp.chunks_exact_mut(cw)) {
-        for (j, acc) in row.iter_mut().enumerate() {
-            let x = win.x0 + j;
-            for (t, k) in kernel.iter().enumerate() {
-                *acc += k * ch.at(map, (x + t).saturating_sub(r).min(w - 1), y);
+        for (j, v) in line.iter_mut().enumerate() {
+            *v = ch.at(map, (win.x0 + j).saturating_sub(r).min(w - 1), y);
+        }
+        for (t, k) in kernel.iter().enumerate() {
+            for (acc, v) in row.iter_mut().zip(&line[t..t + cw]) {
+                *acc += k * v;
             }
         }
     }
@@ -274,6 +279,107 @@ mod tests {
             let alike = pooled_psnr(std::iter::repeat_n(psnrs[0], psnrs.len()))
                 .ok_or_else(|| TestCaseError::fail("no value"))?;
             prop_assert!((alike - psnrs[0]).abs() < 1e-9);
+        }
+    }
+
+    /// SSIM as the module docs define it, the plainest way: every map blurred over the whole
+    /// image, pixel by pixel, tap by tap.
+    fn ssim_whole_image(a: &RgbImage, b: &RgbImage, mask: Option<&GrayImage>) -> f64 {
+        let (w, h) = (a.width() as usize, a.height() as usize);
+        let (sigma, r) = (1.5f64, 5usize);
+        let mut kernel: Vec<f64> = (0..=2 * r)
+            .map(|i| (-((i as f64 - r as f64).powi(2)) / (2.0 * sigma * sigma)).exp())
+            .collect();
+        let total: f64 = kernel.iter().sum();
+        kernel.iter_mut().for_each(|k| *k /= total);
+        let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+        let mut means = 0.0;
+        for c in 0..3 {
+            let value =
+                |img: &RgbImage, x: usize, y: usize| img.as_raw()[3 * (y * w + x) + c] as f64;
+            let maps: [&dyn Fn(usize, usize) -> f64; 5] = [
+                &|x, y| value(a, x, y),
+                &|x, y| value(b, x, y),
+                &|x, y| value(a, x, y) * value(a, x, y),
+                &|x, y| value(b, x, y) * value(b, x, y),
+                &|x, y| value(a, x, y) * value(b, x, y),
+            ];
+            let [ux, uy, uxx, uyy, uxy] = maps.map(|map| {
+                let mut across = vec![0.0; w * h];
+                for y in 0..h {
+                    for x in 0..w {
+                        for (t, k) in kernel.iter().enumerate() {
+                            across[y * w + x] += k * map((x + t).saturating_sub(r).min(w - 1), y);
+                        }
+                    }
+                }
+                let mut out = vec![0.0; w * h];
+                for y in 0..h {
+                    for x in 0..w {
+                        for (t, k) in kernel.iter().enumerate() {
+                            out[y * w + x] +=
+                                k * across[(y + t).saturating_sub(r).min(h - 1) * w + x];
+                        }
+                    }
+                }
+                out
+            });
+            let (mut sum, mut n) = (0.0, 0usize);
+            for y in r..h.saturating_sub(r) {
+                for x in r..w.saturating_sub(r) {
+                    let i = y * w + x;
+                    if mask.is_some_and(|m| m.as_raw()[i] == 0) {
+                        continue;
+                    }
+                    let vx = uxx[i] - ux[i] * ux[i];
+                    let vy = uyy[i] - uy[i] * uy[i];
+                    let cxy = uxy[i] - ux[i] * uy[i];
+                    sum += ((2.0 * ux[i] * uy[i] + c1) * (2.0 * cxy + c2))
+                        / ((ux[i] * ux[i] + uy[i] * uy[i] + c1) * (vx + vy + c2));
+                    n += 1;
+                }
+            }
+            means += sum / n.max(1) as f64;
+        }
+        means / 3.0
+    }
+
+    proptest! {
+        /// `ssim` blurs only the window the mask needs, row by row: the same value, to the
+        /// bit, as blurring the whole images, with or without a mask.
+        #[test]
+        fn ssim_equals_the_whole_image_blur(
+            (w, h, a, b, mask) in (11u32..40, 11u32..40).prop_flat_map(|(w, h)| {
+                let n = (w * h) as usize;
+                (
+                    Just(w),
+                    Just(h),
+                    prop::collection::vec(any::<u8>(), 3 * n),
+                    prop::collection::vec(any::<u8>(), 3 * n),
+                    prop::option::of(prop::collection::vec(prop::bool::weighted(0.3), n)),
+                )
+            }),
+        ) {
+            let image = |raw: Vec<u8>| {
+                RgbImage::from_raw(w, h, raw).ok_or_else(|| TestCaseError::fail("image size"))
+            };
+            let (a, b) = (image(a)?, image(b)?);
+            let mask = mask
+                .map(|m| GrayImage::from_raw(w, h, m.iter().map(|&on| 255 * on as u8).collect()))
+                .map(|m| m.ok_or_else(|| TestCaseError::fail("mask size")))
+                .transpose()?;
+            match ssim(&a, &b, mask.as_ref()) {
+                Ok(fast) => {
+                    let plain = ssim_whole_image(&a, &b, mask.as_ref());
+                    prop_assert_eq!(fast.to_bits(), plain.to_bits(), "{} against {}", fast, plain);
+                }
+                // Only a mask with nothing inside the border is refused.
+                Err(Error::EmptyMask) => {
+                    let m = mask.ok_or_else(|| TestCaseError::fail("refused without a mask"))?;
+                    prop_assert!((5..h - 5).all(|y| (5..w - 5).all(|x| m.get_pixel(x, y)[0] == 0)));
+                }
+                Err(e) => return Err(TestCaseError::fail(e.to_string())),
+            }
         }
     }
 
