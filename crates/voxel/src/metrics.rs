@@ -2,6 +2,7 @@
 
 use image::GrayImage;
 use nalgebra::Point3;
+use rayon::prelude::*;
 
 use crate::grid::VoxelModel;
 use crate::raycast::DepthMap;
@@ -121,10 +122,10 @@ impl PointIndex {
 }
 
 /// The `quantile` (0 to 1) of the distances from each `points` entry to the nearest of
-/// `reference` (the accuracy of a reconstruction with `quantile = 0.9`).
+/// `reference` (the accuracy of a reconstruction with `quantile = 0.9`), the points in parallel.
 pub fn distance_quantile(points: &[Point3<f64>], reference: &PointIndex, quantile: f64) -> f64 {
     let mut d: Vec<f64> = points
-        .iter()
+        .par_iter()
         .map(|p| reference.nearest_distance(p))
         .collect();
     if d.is_empty() {
@@ -136,13 +137,13 @@ pub fn distance_quantile(points: &[Point3<f64>], reference: &PointIndex, quantil
 }
 
 /// The share of `points` within `tolerance` of the nearest of `reference` (the completeness
-/// of a reconstruction, with the true surface as `points`).
+/// of a reconstruction, with the true surface as `points`), the points in parallel.
 pub fn share_within(points: &[Point3<f64>], reference: &PointIndex, tolerance: f64) -> f64 {
     if points.is_empty() {
         return 0.0;
     }
     let n = points
-        .iter()
+        .par_iter()
         .filter(|p| reference.nearest_distance(p) <= tolerance)
         .count();
     n as f64 / points.len() as f64
