@@ -31,8 +31,10 @@
 //! surface voxel of the hull farther than a few voxels from the model is a mirror when, besides
 //! disagreeing with its neighbours as above, what the sources see through it is not explained by
 //! the model's surface behind it (a source's colour there against what its angularly nearest
-//! neighbour sees at the same point of the surface behind). A hull floating over a matte surface
-//! that the views do see, such as the hull's lid over a chair's seat, fails that second test.
+//! neighbour sees at the same point of the surface behind), and, as for the model, when a share
+//! of the hull's surface voxels around it pass both tests too. A hull floating over a matte
+//! surface that the views do see, such as the hull's lid over a chair's seat, fails the second
+//! test; the share drops the few of its voxels that pass it by chance.
 //! A ray that meets such a mirror voxel in front of the model's surface takes its reflection;
 //! where the nearest source does not see the reflected direction on the mirror, the pixel keeps
 //! its blend at the model's surface behind, which for a mirror's image of the distant lab
@@ -63,8 +65,8 @@ pub struct Reflections {
     /// model's surface voxels within `normal_radius` of it pass too (default 1/3; 0 keeps every
     /// one). A mirror is a surface, not a speck: where the model is wrong on a matte object
     /// (a fat edge, a silhouette) the views disagree on scattered voxels, which this drops,
-    /// while the voxels of a mirror's face pass together. Applies to the model's own voxels;
-    /// the visual hull's candidates have their own second test.
+    /// while the voxels of a mirror's face pass together. Applies to the model's own voxels,
+    /// and to the visual hull's candidates against the hull's surface around them.
     pub mirror_share: f64,
     /// Radius in voxels of the surface voxels around a voxel that its normal is fitted to
     /// (default 3; 1 to 8).
@@ -189,9 +191,9 @@ impl MirrorMap {
                 specular_rms(&model.grid().centre(v), sources, tolerance) > params.specular_rms
             })
             .collect();
-        let map = Self::with_mirrors(model.grid(), surface, passed, tolerance, params, false);
+        let map = Self::indexed(model.grid(), surface, passed, tolerance, params, false);
         let mirror = map.mirrors_in_company(surface, params);
-        MirrorMap { mirror, ..map }
+        MirrorMap { mirror, ..map }.with_normals(surface, params)
     }
 
     /// Which of the `surface` voxels (the map's, in its order) stay mirrors: those that are,
@@ -216,8 +218,9 @@ impl MirrorMap {
             .collect()
     }
 
-    /// The map of the `surface` voxels of a grid, `mirror` telling which are mirrors.
-    fn with_mirrors(
+    /// The map of the `surface` voxels of a grid, `mirror` telling which are mirrors, without
+    /// their normals ([`Self::with_normals`]): enough for [`Self::mirrors_in_company`].
+    fn indexed(
         grid: &VoxelGrid,
         surface: &[[usize; 3]],
         mirror: Vec<bool>,
@@ -231,25 +234,26 @@ impl MirrorMap {
         for (n, &[i, j, k]) in surface.iter().enumerate() {
             slot[(k * ny + j) * nx + i] = n as u32;
         }
-        let map = MirrorMap {
+        MirrorMap {
             grid,
             slot,
             normal: Vec::new(),
-            mirror: Vec::new(),
+            mirror,
             reach: params.reach_voxels * grid.voxel_size(),
             tolerance,
             floating,
-        };
+        }
+    }
+
+    /// The map with the normals of its `surface` voxels (those it was indexed with, in order)
+    /// fitted.
+    fn with_normals(self, surface: &[[usize; 3]], params: &Reflections) -> Self {
         let r = params.normal_radius as i64;
         let normal = surface
             .par_iter()
-            .map(|&v| map.fitted_normal(v, r))
+            .map(|&v| self.fitted_normal(v, r))
             .collect();
-        MirrorMap {
-            normal,
-            mirror,
-            ..map
-        }
+        MirrorMap { normal, ..self }
     }
 
     /// The slot of the surface voxel at `[i, j, k]` (signed, possibly off the grid).
@@ -377,8 +381,9 @@ pub(crate) struct MirrorLayer {
 
 impl MirrorLayer {
     /// The layer of `hull`'s surface voxels that lie more than `params.hull_gap_voxels` from
-    /// every voxel of `model` and that the `sources` (their depths from `model`) find mirrors;
-    /// `None` when there is none. `hull` is on `model`'s grid.
+    /// every voxel of `model` and that the `sources` (their depths from `model`) find mirrors,
+    /// with at least `params.mirror_share` of the hull's surface voxels within
+    /// `params.normal_radius` of them; `None` when there is none. `hull` is on `model`'s grid.
     pub(crate) fn new(
         model: &VoxelModel,
         hull: &VoxelModel,
@@ -395,15 +400,37 @@ impl MirrorLayer {
                 near(j, ny).any(|jj| near(i, nx).any(|ii| model.is_occupied([ii, jj, kk])))
             })
         };
-        let layer: Vec<[usize; 3]> = hull
-            .surface_voxels()
-            .into_par_iter()
-            .filter(|&v| far_from_model(v))
-            .filter(|&v| {
+        // Every surface voxel of the hull is judged, so that a candidate is weighed against the
+        // hull's surface around it, as the model's mirrors are against the model's.
+        let surface = hull.surface_voxels();
+        let passed = surface
+            .par_iter()
+            .map(|&v| {
                 let x = grid.centre(v);
-                specular_rms(&x, sources, tolerance) > params.specular_rms
+                far_from_model(v)
+                    && specular_rms(&x, sources, tolerance) > params.specular_rms
                     && see_through_rms(&x, sources, tolerance) > params.see_through_rms
             })
+            .collect();
+        Self::of_surface(&grid, &surface, passed, tolerance, params)
+    }
+
+    /// The layer of those of the hull's `surface` voxels that `passed` the tests, with at least
+    /// `params.mirror_share` of the `surface` voxels within `params.normal_radius` passing too.
+    fn of_surface(
+        grid: &VoxelGrid,
+        surface: &[[usize; 3]],
+        passed: Vec<bool>,
+        tolerance: f64,
+        params: &Reflections,
+    ) -> Option<Self> {
+        let grid = *grid;
+        let kept = MirrorMap::indexed(&grid, surface, passed, tolerance, params, true)
+            .mirrors_in_company(surface, params);
+        let layer: Vec<[usize; 3]> = surface
+            .iter()
+            .zip(kept)
+            .filter_map(|(&v, kept)| kept.then_some(v))
             .collect();
         let first = grid.centre(*layer.first()?);
         let (mut min, mut max) = (first, first);
@@ -415,14 +442,15 @@ impl MirrorLayer {
             voxels.set(v, [255; 3]);
         }
         let half = Vector3::repeat(0.5 * grid.voxel_size());
-        let map = MirrorMap::with_mirrors(
+        let map = MirrorMap::indexed(
             &grid,
             &layer,
             vec![true; layer.len()],
             tolerance,
             params,
             true,
-        );
+        )
+        .with_normals(&layer, params);
         Some(MirrorLayer {
             voxels,
             map,
@@ -631,7 +659,7 @@ mod tests {
         let speck = |[i, j, _]: [usize; 3]| i == 30 && j == 30;
         let passed: Vec<bool> = surface.iter().map(|&v| patch(v) || speck(v)).collect();
         let params = Reflections::default();
-        let map = MirrorMap::with_mirrors(&grid, &surface, passed.clone(), 0.0, &params, false);
+        let map = MirrorMap::indexed(&grid, &surface, passed.clone(), 0.0, &params, false);
 
         let kept = map.mirrors_in_company(&surface, &params);
         for ((&v, &p), &k) in surface.iter().zip(&passed).zip(&kept) {
@@ -651,6 +679,56 @@ mod tests {
             ..params
         };
         assert_eq!(map.mirrors_in_company(&surface, &all), passed);
+        Ok(())
+    }
+
+    /// The layer of mirrors from the visual hull is a surface too: of the hull's surface voxels
+    /// that pass the layer's tests, a patch stays and a lone voxel (as a few over a matte seat
+    /// do by chance) does not.
+    #[test]
+    fn the_layer_from_the_hull_is_a_surface() -> Result<(), Box<dyn std::error::Error>> {
+        let bounds = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 1.0, 1.0))?;
+        let grid = VoxelGrid::with_resolution(bounds, 40)?;
+        let hull = VoxelModel::from_centres(grid, |p| (p.z - 0.5).abs() < 0.6 * grid.voxel_size());
+        let surface = hull.surface_voxels();
+        let patch = |[i, j, _]: [usize; 3]| (10..20).contains(&i) && (10..20).contains(&j);
+        let speck = |[i, j, _]: [usize; 3]| i == 30 && j == 30;
+        let passed: Vec<bool> = surface.iter().map(|&v| patch(v) || speck(v)).collect();
+        let params = Reflections::default();
+
+        let layer = MirrorLayer::of_surface(&grid, &surface, passed.clone(), 0.0, &params)
+            .ok_or("the patch makes no layer")?;
+        for (&v, &p) in surface.iter().zip(&passed) {
+            let [i, j, _] = v;
+            let inside = (11..19).contains(&i) && (11..19).contains(&j);
+            let kept = layer.voxels.is_occupied(v);
+            assert!(!kept || p, "{v:?} kept without passing");
+            assert!(!(speck(v) && kept), "{v:?}, alone, kept");
+            assert!(!inside || kept, "{v:?}, inside the patch, dropped");
+        }
+        // Every voxel of the layer is a mirror, with the slab's normal.
+        let centre = grid.centre([15, 15, 20]);
+        let n = layer
+            .map
+            .mirror_at(&centre)
+            .ok_or("no mirror at the patch")?;
+        assert!(n.z.abs() > 0.99, "{n}");
+
+        // The speck alone makes no layer; with no share asked for, it does.
+        let alone: Vec<bool> = surface.iter().map(|&v| speck(v)).collect();
+        assert!(MirrorLayer::of_surface(&grid, &surface, alone.clone(), 0.0, &params).is_none());
+        let all = Reflections {
+            mirror_share: 0.0,
+            ..params
+        };
+        let layer = MirrorLayer::of_surface(&grid, &surface, alone, 0.0, &all)
+            .ok_or("a share of 0 drops the speck")?;
+        assert!(
+            surface
+                .iter()
+                .filter(|&&v| speck(v))
+                .all(|&v| layer.voxels.is_occupied(v))
+        );
         Ok(())
     }
 }
