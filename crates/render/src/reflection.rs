@@ -645,30 +645,47 @@ mod tests {
         assert_eq!(map.mirror_at(&centre), None);
         Ok(())
     }
+
+    /// A grid, the surface voxels of a slab on it, and which of them pass a test.
+    type Slab = (VoxelGrid, Vec<[usize; 3]>, Vec<bool>);
+
+    /// A flat slab two voxels thick on a 40^3 grid (every voxel of it on the surface), its
+    /// surface voxels, and which of them pass a test: a 10 x 10 patch, and one voxel far from it
+    /// ([`speck`]).
+    fn slab_with_a_patch_and_a_speck() -> Result<Slab, Box<dyn std::error::Error>> {
+        let bounds = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 1.0, 1.0))?;
+        let grid = VoxelGrid::with_resolution(bounds, 40)?;
+        let slab = VoxelModel::from_centres(grid, |p| (p.z - 0.5).abs() < 0.6 * grid.voxel_size());
+        let surface = slab.surface_voxels();
+        let patch = |[i, j, _]: [usize; 3]| (10..20).contains(&i) && (10..20).contains(&j);
+        let passed = surface.iter().map(|&v| patch(v) || speck(v)).collect();
+        Ok((grid, surface, passed))
+    }
+
+    /// Whether `v` is inside the patch of [`slab_with_a_patch_and_a_speck`], off its edge.
+    fn inside_the_patch([i, j, _]: [usize; 3]) -> bool {
+        (11..19).contains(&i) && (11..19).contains(&j)
+    }
+
+    /// Whether `v` is the lone voxel that passes in [`slab_with_a_patch_and_a_speck`].
+    fn speck([i, j, _]: [usize; 3]) -> bool {
+        i == 30 && j == 30
+    }
+
     /// A mirror is a surface: a patch of voxels that pass the colour test stays, a voxel that
     /// passes alone on a matte surface (as where the model is wrong) does not.
     #[test]
     fn a_mirror_needs_mirrors_around_it() -> Result<(), Box<dyn std::error::Error>> {
-        let bounds = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 1.0, 1.0))?;
-        let grid = VoxelGrid::with_resolution(bounds, 40)?;
-        // A flat slab two voxels thick, every voxel of it on the surface.
-        let model = VoxelModel::from_centres(grid, |p| (p.z - 0.5).abs() < 0.6 * grid.voxel_size());
-        let surface = model.surface_voxels();
-        // A 10 x 10 patch passes the colour test, and one voxel far from it.
-        let patch = |[i, j, _]: [usize; 3]| (10..20).contains(&i) && (10..20).contains(&j);
-        let speck = |[i, j, _]: [usize; 3]| i == 30 && j == 30;
-        let passed: Vec<bool> = surface.iter().map(|&v| patch(v) || speck(v)).collect();
+        let (grid, surface, passed) = slab_with_a_patch_and_a_speck()?;
         let params = Reflections::default();
         let map = MirrorMap::indexed(&grid, &surface, passed.clone(), 0.0, &params, false);
 
         let kept = map.mirrors_in_company(&surface, &params);
         for ((&v, &p), &k) in surface.iter().zip(&passed).zip(&kept) {
-            let [i, j, _] = v;
             // The patch's inside stays; its edge, with fewer mirrors around, is not asked.
-            let inside = (11..19).contains(&i) && (11..19).contains(&j);
             if speck(v) || !p {
                 assert!(!k, "{v:?} kept");
-            } else if inside {
+            } else if inside_the_patch(v) {
                 assert!(k, "{v:?} dropped");
             }
         }
@@ -687,24 +704,20 @@ mod tests {
     /// do by chance) does not.
     #[test]
     fn the_layer_from_the_hull_is_a_surface() -> Result<(), Box<dyn std::error::Error>> {
-        let bounds = Aabb::new(Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 1.0, 1.0))?;
-        let grid = VoxelGrid::with_resolution(bounds, 40)?;
-        let hull = VoxelModel::from_centres(grid, |p| (p.z - 0.5).abs() < 0.6 * grid.voxel_size());
-        let surface = hull.surface_voxels();
-        let patch = |[i, j, _]: [usize; 3]| (10..20).contains(&i) && (10..20).contains(&j);
-        let speck = |[i, j, _]: [usize; 3]| i == 30 && j == 30;
-        let passed: Vec<bool> = surface.iter().map(|&v| patch(v) || speck(v)).collect();
+        // The slab stands in for the hull.
+        let (grid, surface, passed) = slab_with_a_patch_and_a_speck()?;
         let params = Reflections::default();
 
         let layer = MirrorLayer::of_surface(&grid, &surface, passed.clone(), 0.0, &params)
             .ok_or("the patch makes no layer")?;
         for (&v, &p) in surface.iter().zip(&passed) {
-            let [i, j, _] = v;
-            let inside = (11..19).contains(&i) && (11..19).contains(&j);
             let kept = layer.voxels.is_occupied(v);
             assert!(!kept || p, "{v:?} kept without passing");
             assert!(!(speck(v) && kept), "{v:?}, alone, kept");
-            assert!(!inside || kept, "{v:?}, inside the patch, dropped");
+            assert!(
+                !inside_the_patch(v) || kept,
+                "{v:?}, inside the patch, dropped"
+            );
         }
         // Every voxel of the layer is a mirror, with the slab's normal.
         let centre = grid.centre([15, 15, 20]);
