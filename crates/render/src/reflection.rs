@@ -158,6 +158,8 @@ const SAME_PLANE_COSINE: f64 = 0.966;
 /// The model's surface voxels with their normals, and which of them are mirrors.
 pub(crate) struct MirrorMap {
     grid: VoxelGrid,
+    /// The surface voxels, in the order of their slots.
+    surface: Vec<[usize; 3]>,
     /// Per voxel of the grid, its slot among the surface voxels (`u32::MAX` for none).
     slot: Vec<u32>,
     /// Per surface voxel, its unit normal (its sign is arbitrary: a reflection does not depend
@@ -191,17 +193,24 @@ impl MirrorMap {
                 specular_rms(&model.grid().centre(v), sources, tolerance) > params.specular_rms
             })
             .collect();
-        let map = Self::indexed(model.grid(), surface, passed, tolerance, params, false);
-        let mirror = map.mirrors_in_company(surface, params);
-        MirrorMap { mirror, ..map }.with_normals(surface, params)
+        let map = Self::indexed(
+            model.grid(),
+            surface.to_vec(),
+            passed,
+            tolerance,
+            params,
+            false,
+        );
+        let mirror = map.mirrors_in_company(params);
+        MirrorMap { mirror, ..map }.with_normals(params)
     }
 
-    /// Which of the `surface` voxels (the map's, in its order) stay mirrors: those that are,
-    /// with at least `params.mirror_share` of the surface voxels within `params.normal_radius`
-    /// of them (themselves included).
-    fn mirrors_in_company(&self, surface: &[[usize; 3]], params: &Reflections) -> Vec<bool> {
+    /// Which of the map's surface voxels (in its order) stay mirrors: those that are, with at
+    /// least `params.mirror_share` of the surface voxels within `params.normal_radius` of them
+    /// (themselves included).
+    fn mirrors_in_company(&self, params: &Reflections) -> Vec<bool> {
         let r = params.normal_radius as i64;
-        surface
+        self.surface
             .par_iter()
             .zip(&self.mirror)
             .map(|(&v, &mirror)| {
@@ -222,7 +231,7 @@ impl MirrorMap {
     /// their normals ([`Self::with_normals`]): enough for [`Self::mirrors_in_company`].
     fn indexed(
         grid: &VoxelGrid,
-        surface: &[[usize; 3]],
+        surface: Vec<[usize; 3]>,
         mirror: Vec<bool>,
         tolerance: f64,
         params: &Reflections,
@@ -236,6 +245,7 @@ impl MirrorMap {
         }
         MirrorMap {
             grid,
+            surface,
             slot,
             normal: Vec::new(),
             mirror,
@@ -245,11 +255,11 @@ impl MirrorMap {
         }
     }
 
-    /// The map with the normals of its `surface` voxels (those it was indexed with, in order)
-    /// fitted.
-    fn with_normals(self, surface: &[[usize; 3]], params: &Reflections) -> Self {
+    /// The map with the normals of its surface voxels fitted.
+    fn with_normals(self, params: &Reflections) -> Self {
         let r = params.normal_radius as i64;
-        let normal = surface
+        let normal = self
+            .surface
             .par_iter()
             .map(|&v| self.fitted_normal(v, r))
             .collect();
@@ -412,22 +422,23 @@ impl MirrorLayer {
                     && see_through_rms(&x, sources, tolerance) > params.see_through_rms
             })
             .collect();
-        Self::of_surface(&grid, &surface, passed, tolerance, params)
+        Self::of_surface(&grid, surface, passed, tolerance, params)
     }
 
     /// The layer of those of the hull's `surface` voxels that `passed` the tests, with at least
     /// `params.mirror_share` of the `surface` voxels within `params.normal_radius` passing too.
     fn of_surface(
         grid: &VoxelGrid,
-        surface: &[[usize; 3]],
+        surface: Vec<[usize; 3]>,
         passed: Vec<bool>,
         tolerance: f64,
         params: &Reflections,
     ) -> Option<Self> {
         let grid = *grid;
-        let kept = MirrorMap::indexed(&grid, surface, passed, tolerance, params, true)
-            .mirrors_in_company(surface, params);
-        let layer: Vec<[usize; 3]> = surface
+        let judged = MirrorMap::indexed(&grid, surface, passed, tolerance, params, true);
+        let kept = judged.mirrors_in_company(params);
+        let layer: Vec<[usize; 3]> = judged
+            .surface
             .iter()
             .zip(kept)
             .filter_map(|(&v, kept)| kept.then_some(v))
@@ -442,15 +453,9 @@ impl MirrorLayer {
             voxels.set(v, [255; 3]);
         }
         let half = Vector3::repeat(0.5 * grid.voxel_size());
-        let map = MirrorMap::indexed(
-            &grid,
-            &layer,
-            vec![true; layer.len()],
-            tolerance,
-            params,
-            true,
-        )
-        .with_normals(&layer, params);
+        let mirror = vec![true; layer.len()];
+        let map =
+            MirrorMap::indexed(&grid, layer, mirror, tolerance, params, true).with_normals(params);
         Some(MirrorLayer {
             voxels,
             map,
@@ -678,9 +683,9 @@ mod tests {
     fn a_mirror_needs_mirrors_around_it() -> Result<(), Box<dyn std::error::Error>> {
         let (grid, surface, passed) = slab_with_a_patch_and_a_speck()?;
         let params = Reflections::default();
-        let map = MirrorMap::indexed(&grid, &surface, passed.clone(), 0.0, &params, false);
+        let map = MirrorMap::indexed(&grid, surface.clone(), passed.clone(), 0.0, &params, false);
 
-        let kept = map.mirrors_in_company(&surface, &params);
+        let kept = map.mirrors_in_company(&params);
         for ((&v, &p), &k) in surface.iter().zip(&passed).zip(&kept) {
             // The patch's inside stays; its edge, with fewer mirrors around, is not asked.
             if speck(v) || !p {
@@ -695,7 +700,7 @@ mod tests {
             mirror_share: 0.0,
             ..params
         };
-        assert_eq!(map.mirrors_in_company(&surface, &all), passed);
+        assert_eq!(map.mirrors_in_company(&all), passed);
         Ok(())
     }
 
@@ -708,7 +713,7 @@ mod tests {
         let (grid, surface, passed) = slab_with_a_patch_and_a_speck()?;
         let params = Reflections::default();
 
-        let layer = MirrorLayer::of_surface(&grid, &surface, passed.clone(), 0.0, &params)
+        let layer = MirrorLayer::of_surface(&grid, surface.clone(), passed.clone(), 0.0, &params)
             .ok_or("the patch makes no layer")?;
         for (&v, &p) in surface.iter().zip(&passed) {
             let kept = layer.voxels.is_occupied(v);
@@ -729,12 +734,14 @@ mod tests {
 
         // The speck alone makes no layer; with no share asked for, it does.
         let alone: Vec<bool> = surface.iter().map(|&v| speck(v)).collect();
-        assert!(MirrorLayer::of_surface(&grid, &surface, alone.clone(), 0.0, &params).is_none());
+        assert!(
+            MirrorLayer::of_surface(&grid, surface.clone(), alone.clone(), 0.0, &params).is_none()
+        );
         let all = Reflections {
             mirror_share: 0.0,
             ..params
         };
-        let layer = MirrorLayer::of_surface(&grid, &surface, alone, 0.0, &all)
+        let layer = MirrorLayer::of_surface(&grid, surface.clone(), alone, 0.0, &all)
             .ok_or("a share of 0 drops the speck")?;
         assert!(
             surface
