@@ -7,7 +7,7 @@ use std::collections::hash_map::Entry;
 use std::path::Path;
 
 use aibr_camera::{Angle, Camera};
-use aibr_render::{RenderParams, metrics};
+use aibr_render::{MirrorCounts, RenderParams, metrics};
 use aibr_scene::{GeometryReference, RenderOptions, Scene};
 use aibr_voxel::metrics::{GeometryScore, geometry_score};
 use aibr_voxel::{
@@ -240,6 +240,10 @@ pub struct Checkpoint {
     /// strategy's mean is otherwise over its own novel views, which leave out the angles it
     /// chose to capture, so this is the like-for-like comparison.
     pub common: Option<ViewFigures>,
+    /// With [`RenderParams::reflections`], how many surface voxels of the model and of the
+    /// views' visual hull the renderer judged and found mirrors
+    /// ([`aibr_render::Renderer::mirror_counts`]); `None` without reflections.
+    pub mirrors: Option<MirrorCounts>,
 }
 
 /// The figures of a set of a checkpoint's novel views: all of them, those at the angles every
@@ -674,6 +678,7 @@ fn measure<R: EvalRig>(
         novel,
         geometry: score,
         common: None,
+        mirrors: renderer.mirror_counts(),
     })
 }
 
@@ -733,6 +738,7 @@ mod tests {
             ],
             geometry: None,
             common: None,
+            mirrors: None,
         };
         // Unturned: the novel views at 50 and 150 lie on the arc, and the captured one at 100.
         let plain = checkpoint.split(&arc, Angle::ZERO);

@@ -245,7 +245,9 @@ struct RefineArgs {
     /// so the mirrors the model lacks are taken from the visual hull of the views' masks
     /// where the surface behind does not explain what the views see (docs/render.md, "Mirror
     /// reflections"). Near captured views the mirror side renders better; elsewhere nothing
-    /// changes.
+    /// changes. `aibr eval --json` reports at each checkpoint how many surface voxels of the
+    /// model and of the hull were judged, passed the tests of a mirror and were kept
+    /// (`mirrors`).
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     reflections: OnOff,
 }
@@ -1640,6 +1642,19 @@ fn checkpoint_json(c: &aibr::Checkpoint, arc: Option<&ArcReport>) -> serde_json:
             "masked_ssim": v.ssim,
         })).collect::<Vec<_>>(),
     });
+    if let Some(m) = c.mirrors {
+        let tally = |t: aibr::render::MirrorTally| {
+            serde_json::json!({
+                "surface_voxels": t.surface,
+                "passed": t.passed,
+                "mirrors": t.mirrors,
+            })
+        };
+        checkpoint["mirrors"] = serde_json::json!({
+            "model": tally(m.model),
+            "visual_hull": m.hull.map(tally),
+        });
+    }
     if let Some(r) = arc {
         let split = c.split(&r.arc, r.turn);
         checkpoint["arc"] = serde_json::json!({

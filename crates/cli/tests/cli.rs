@@ -950,6 +950,30 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         assert!(a.0 == b.0 && a.1[1..] == b.1[1..], "{figures:?}");
         assert!((a.1[0] - b.1[0]).abs() < 0.05, "{rec:?} vs {figures:?}");
     }
+    // Each checkpoint counts the surface voxels judged for mirrors, in the model and in the
+    // hull, and those kept (none without reflections).
+    let each = |s: &serde_json::Value| -> Vec<serde_json::Value> {
+        s["results"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .flat_map(|r| r["checkpoints"].as_array().cloned().unwrap_or_default())
+            .collect()
+    };
+    assert!(each(&summary).iter().all(|c| c.get("mirrors").is_none()));
+    let counted = each(&mirrored);
+    assert_eq!(counted.len(), rec.len());
+    for c in &counted {
+        for part in ["model", "visual_hull"] {
+            let t = &c["mirrors"][part];
+            let n = |k: &str| t[k].as_u64().ok_or(format!("{part}: no {k} in {c}"));
+            let (surface, passed, mirrors) = (n("surface_voxels")?, n("passed")?, n("mirrors")?);
+            assert!(
+                surface > 0 && passed <= surface && mirrors <= passed,
+                "{part}: {t}"
+            );
+        }
+    }
     let nearest = small_eval_json(
         &[&budget[..], &["--refine-pair", "nearest"]].concat(),
         &work,

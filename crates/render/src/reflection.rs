@@ -155,6 +155,46 @@ const NEIGHBOUR_COSINE: f64 = 0.94;
 /// The cosine two normals of one mirror make at least (15 degrees).
 const SAME_PLANE_COSINE: f64 = 0.966;
 
+/// How many surface voxels the reflections judged, and how many came out mirrors
+/// ([`MirrorCounts`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MirrorTally {
+    /// The surface voxels judged.
+    pub surface: usize,
+    /// Those that passed the tests of a mirror voxel: for the model, that the sources
+    /// disagree there ([`Reflections::specular_rms`]); for the visual hull's layer, that and
+    /// lying far from the model and not being explained by the model behind
+    /// ([`Reflections::hull_gap_voxels`], [`Reflections::see_through_rms`]).
+    pub passed: usize,
+    /// Those of them kept as mirrors: with at least [`Reflections::mirror_share`] of the
+    /// surface voxels around them passing too.
+    pub mirrors: usize,
+}
+
+impl MirrorTally {
+    /// The tally of the surface voxels that `passed` the tests or not, of which `mirrors`
+    /// were kept.
+    fn of(passed: &[bool], mirrors: usize) -> Self {
+        MirrorTally {
+            surface: passed.len(),
+            passed: passed.iter().filter(|&&p| p).count(),
+            mirrors,
+        }
+    }
+}
+
+/// What a renderer with reflections found mirrors ([`crate::Renderer::mirror_counts`]): among
+/// the model's surface voxels, and among the visual hull's when it was given one
+/// ([`crate::Renderer::with_visual_hull`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MirrorCounts {
+    /// The model's surface voxels.
+    pub model: MirrorTally,
+    /// The visual hull's surface voxels, judged for the layer of mirrors the model lacks;
+    /// `None` without a hull.
+    pub hull: Option<MirrorTally>,
+}
+
 /// The model's surface voxels with their normals, and which of them are mirrors.
 pub(crate) struct MirrorMap {
     grid: VoxelGrid,
@@ -179,14 +219,14 @@ pub(crate) struct MirrorMap {
 
 impl MirrorMap {
     /// The map of `model`'s `surface` voxels, judged by `sources` (seeing a point within
-    /// `tolerance` metres of their own depth).
+    /// `tolerance` metres of their own depth), with how many passed and were kept.
     pub(crate) fn new(
         model: &VoxelModel,
         surface: &[[usize; 3]],
         sources: &[Source],
         tolerance: f64,
         params: &Reflections,
-    ) -> Self {
+    ) -> (Self, MirrorTally) {
         let passed = surface
             .par_iter()
             .map(|&v| {
@@ -202,7 +242,8 @@ impl MirrorMap {
             false,
         );
         let mirror = map.mirrors_in_company(params);
-        MirrorMap { mirror, ..map }.with_normals(params)
+        let tally = MirrorTally::of(&map.mirror, mirror.iter().filter(|&&m| m).count());
+        (MirrorMap { mirror, ..map }.with_normals(params), tally)
     }
 
     /// Which of the map's surface voxels (in its order) stay mirrors: those that are, with at
@@ -394,13 +435,14 @@ impl MirrorLayer {
     /// every voxel of `model` and that the `sources` (their depths from `model`) find mirrors,
     /// with at least `params.mirror_share` of the hull's surface voxels within
     /// `params.normal_radius` of them; `None` when there is none. `hull` is on `model`'s grid.
+    /// With the layer, how many of the hull's surface voxels passed the tests and were kept.
     pub(crate) fn new(
         model: &VoxelModel,
         hull: &VoxelModel,
         sources: &[Source],
         tolerance: f64,
         params: &Reflections,
-    ) -> Option<Self> {
+    ) -> (Option<Self>, MirrorTally) {
         let grid = *model.grid();
         let [nx, ny, nz] = grid.dims();
         let gap = params.hull_gap_voxels;
@@ -421,8 +463,11 @@ impl MirrorLayer {
                     && specular_rms(&x, sources, tolerance) > params.specular_rms
                     && see_through_rms(&x, sources, tolerance) > params.see_through_rms
             })
-            .collect();
-        Self::of_surface(&grid, surface, passed, tolerance, params)
+            .collect::<Vec<bool>>();
+        let layer = Self::of_surface(&grid, surface, passed.clone(), tolerance, params);
+        // The voxels kept are the layer's.
+        let tally = MirrorTally::of(&passed, layer.as_ref().map_or(0, |l| l.map.surface.len()));
+        (layer, tally)
     }
 
     /// The layer of those of the hull's `surface` voxels that `passed` the tests, with at least
@@ -635,7 +680,7 @@ mod tests {
         let half = 0.6 * grid.voxel_size();
         let model = VoxelModel::from_centres(grid, |p| (p - centre).dot(&n).abs() < half);
         let surface = model.surface_voxels();
-        let map = MirrorMap::new(&model, &surface, &[], 0.0, &Reflections::default());
+        let (map, tally) = MirrorMap::new(&model, &surface, &[], 0.0, &Reflections::default());
         let mut checked = 0;
         for (v, normal) in surface.iter().zip(&map.normal) {
             if (grid.centre(*v) - centre).norm() > 0.3 {
@@ -647,6 +692,15 @@ mod tests {
         }
         assert!(checked > 100, "{checked}");
         assert!(map.mirror.iter().all(|&m| !m));
+        let judged = surface.len();
+        assert_eq!(
+            tally,
+            MirrorTally {
+                surface: judged,
+                passed: 0,
+                mirrors: 0
+            }
+        );
         assert_eq!(map.mirror_at(&centre), None);
         Ok(())
     }

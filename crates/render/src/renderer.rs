@@ -10,7 +10,7 @@ use nalgebra::{Point2, Point3, Rotation3, Vector3};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::reflection::{MirrorLayer, MirrorMap, Reflections};
+use crate::reflection::{MirrorCounts, MirrorLayer, MirrorMap, Reflections};
 
 /// A captured view: a pinhole camera and its image.
 #[derive(Debug, Clone)]
@@ -488,6 +488,8 @@ pub struct Renderer<'a> {
     mirrors: Option<MirrorMap>,
     /// The mirrors the model lacks, from the visual hull ([`Renderer::with_visual_hull`]).
     layer: Option<MirrorLayer>,
+    /// How many voxels the reflections judged and found mirrors.
+    counts: Option<MirrorCounts>,
 }
 
 impl<'a> Renderer<'a> {
@@ -565,12 +567,14 @@ impl<'a> Renderer<'a> {
             })
             .collect::<Result<Vec<_>>>()?;
         let tolerance = params.occlusion_tolerance_voxels * s;
-        let mirrors = params
+        let (mirrors, model_tally) = params
             .reflections
-            .map(|r| MirrorMap::new(&model, &surface, &prepared, tolerance, &r));
+            .map(|r| MirrorMap::new(&model, &surface, &prepared, tolerance, &r))
+            .unzip();
         Ok(Renderer {
             layer: None,
             mirrors,
+            counts: model_tally.map(|model| MirrorCounts { model, hull: None }),
             model,
             sources: prepared,
             params,
@@ -596,9 +600,21 @@ impl<'a> Renderer<'a> {
             });
         }
         if let Some(params) = &self.params.reflections {
-            self.layer = MirrorLayer::new(&self.model, hull, &self.sources, self.tolerance, params);
+            let (layer, tally) =
+                MirrorLayer::new(&self.model, hull, &self.sources, self.tolerance, params);
+            self.layer = layer;
+            if let Some(counts) = &mut self.counts {
+                counts.hull = Some(tally);
+            }
         }
         Ok(self)
+    }
+
+    /// With [`RenderParams::reflections`], how many of the model's surface voxels (and of the
+    /// visual hull's, given one) were judged, passed the tests of a mirror and were kept as
+    /// mirrors; `None` without reflections.
+    pub fn mirror_counts(&self) -> Option<MirrorCounts> {
+        self.counts
     }
 
     /// The focal point: the centroid of the model's surface voxels.
