@@ -171,18 +171,6 @@ pub struct MirrorTally {
     pub mirrors: usize,
 }
 
-impl MirrorTally {
-    /// The tally of the surface voxels that `passed` the tests or not, of which `mirrors`
-    /// were kept.
-    fn of(passed: &[bool], mirrors: usize) -> Self {
-        MirrorTally {
-            surface: passed.len(),
-            passed: passed.iter().filter(|&&p| p).count(),
-            mirrors,
-        }
-    }
-}
-
 /// What a renderer with reflections found mirrors ([`crate::Renderer::mirror_counts`]): among
 /// the model's surface voxels, and among the visual hull's when it was given one
 /// ([`crate::Renderer::with_visual_hull`]).
@@ -233,7 +221,7 @@ impl MirrorMap {
                 specular_rms(&model.grid().centre(v), sources, tolerance) > params.specular_rms
             })
             .collect();
-        let map = Self::indexed(
+        let (map, tally) = Self::judged(
             model.grid(),
             surface.to_vec(),
             passed,
@@ -241,9 +229,29 @@ impl MirrorMap {
             params,
             false,
         );
+        (map.with_normals(params), tally)
+    }
+
+    /// The map of the `surface` voxels of a grid whose mirrors are those that `passed` the
+    /// tests with enough company ([`Self::mirrors_in_company`]), without their normals, and
+    /// how many passed and were kept.
+    fn judged(
+        grid: &VoxelGrid,
+        surface: Vec<[usize; 3]>,
+        passed: Vec<bool>,
+        tolerance: f64,
+        params: &Reflections,
+        floating: bool,
+    ) -> (Self, MirrorTally) {
+        let map = Self::indexed(grid, surface, passed, tolerance, params, floating);
         let mirror = map.mirrors_in_company(params);
-        let tally = MirrorTally::of(&map.mirror, mirror.iter().filter(|&&m| m).count());
-        (MirrorMap { mirror, ..map }.with_normals(params), tally)
+        let count = |flags: &[bool]| flags.iter().filter(|&&f| f).count();
+        let tally = MirrorTally {
+            surface: map.surface.len(),
+            passed: count(&map.mirror),
+            mirrors: count(&mirror),
+        };
+        (MirrorMap { mirror, ..map }, tally)
     }
 
     /// Which of the map's surface voxels (in its order) stay mirrors: those that are, with at
@@ -463,32 +471,32 @@ impl MirrorLayer {
                     && specular_rms(&x, sources, tolerance) > params.specular_rms
                     && see_through_rms(&x, sources, tolerance) > params.see_through_rms
             })
-            .collect::<Vec<bool>>();
-        let layer = Self::of_surface(&grid, surface, passed.clone(), tolerance, params);
-        // The voxels kept are the layer's.
-        let tally = MirrorTally::of(&passed, layer.as_ref().map_or(0, |l| l.map.surface.len()));
-        (layer, tally)
+            .collect();
+        Self::of_surface(&grid, surface, passed, tolerance, params)
     }
 
     /// The layer of those of the hull's `surface` voxels that `passed` the tests, with at least
-    /// `params.mirror_share` of the `surface` voxels within `params.normal_radius` passing too.
+    /// `params.mirror_share` of the `surface` voxels within `params.normal_radius` passing too
+    /// (`None` when there is none), and how many passed and were kept.
     fn of_surface(
         grid: &VoxelGrid,
         surface: Vec<[usize; 3]>,
         passed: Vec<bool>,
         tolerance: f64,
         params: &Reflections,
-    ) -> Option<Self> {
+    ) -> (Option<Self>, MirrorTally) {
         let grid = *grid;
-        let judged = MirrorMap::indexed(&grid, surface, passed, tolerance, params, true);
-        let kept = judged.mirrors_in_company(params);
+        let (judged, tally) = MirrorMap::judged(&grid, surface, passed, tolerance, params, true);
         let layer: Vec<[usize; 3]> = judged
             .surface
             .iter()
-            .zip(kept)
-            .filter_map(|(&v, kept)| kept.then_some(v))
+            .zip(&judged.mirror)
+            .filter_map(|(&v, &kept)| kept.then_some(v))
             .collect();
-        let first = grid.centre(*layer.first()?);
+        let Some(&first) = layer.first() else {
+            return (None, tally);
+        };
+        let first = grid.centre(first);
         let (mut min, mut max) = (first, first);
         let mut voxels = VoxelModel::empty(grid);
         for &v in &layer {
@@ -501,12 +509,13 @@ impl MirrorLayer {
         let mirror = vec![true; layer.len()];
         let map =
             MirrorMap::indexed(&grid, layer, mirror, tolerance, params, true).with_normals(params);
-        Some(MirrorLayer {
+        let layer = MirrorLayer {
             voxels,
             map,
             min: min - half,
             max: max + half,
-        })
+        };
+        (Some(layer), tally)
     }
 
     /// [`MirrorMap::reflected`] where the ray from `eye` to the model's surface point `p` meets
@@ -768,6 +777,7 @@ mod tests {
         let params = Reflections::default();
 
         let layer = MirrorLayer::of_surface(&grid, surface.clone(), passed.clone(), 0.0, &params)
+            .0
             .ok_or("the patch makes no layer")?;
         for (&v, &p) in surface.iter().zip(&passed) {
             let kept = layer.voxels.is_occupied(v);
@@ -789,13 +799,16 @@ mod tests {
         // The speck alone makes no layer; with no share asked for, it does.
         let alone: Vec<bool> = surface.iter().map(|&v| speck(v)).collect();
         assert!(
-            MirrorLayer::of_surface(&grid, surface.clone(), alone.clone(), 0.0, &params).is_none()
+            MirrorLayer::of_surface(&grid, surface.clone(), alone.clone(), 0.0, &params)
+                .0
+                .is_none()
         );
         let all = Reflections {
             mirror_share: 0.0,
             ..params
         };
         let layer = MirrorLayer::of_surface(&grid, surface.clone(), alone, 0.0, &all)
+            .0
             .ok_or("a share of 0 drops the speck")?;
         assert!(
             surface
