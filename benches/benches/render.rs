@@ -1,15 +1,16 @@
 //! Renderer bench (group `render`, entry `vga`): a 640x480 frame from 48 views of `lambertian`
 //! and its 128^3 model, half-way between two captures, into preallocated buffers; entry
-//! `vga_unrefined` renders the same frame without the depth refinement. Group `metrics`,
-//! entries `psnr` and `ssim`: that frame against the scene's ground truth, inside the
-//! object's mask, as `aibr eval` measures every novel view.
+//! `vga_unrefined` renders the same frame without the depth refinement, entry `vga_bicubic`
+//! with the sources sampled bicubically. Group `metrics`, entries `psnr` and `ssim`: that
+//! frame against the scene's ground truth, inside the object's mask, as `aibr eval` measures
+//! every novel view.
 //!
 //! `cargo bench -p aibr-benches --bench render`
 
 // criterion's macros generate undocumented public items.
 #![allow(missing_docs)]
 
-use aibr_render::{RenderParams, RenderedView, Renderer, SourceView, metrics};
+use aibr_render::{RenderParams, RenderedView, Renderer, Sampling, SourceView, metrics};
 use aibr_scene::{RenderOptions, catalogue};
 use aibr_voxel::{ColoringParams, VoxelGrid, voxel_coloring};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -58,6 +59,16 @@ fn bench(c: &mut Criterion) {
     if let Ok(unrefined) = Renderer::new(&out.model, sources(), plain) {
         g.bench_function("vga_unrefined", |b| {
             b.iter(|| unrefined.render_into(&camera, &mut buffers))
+        });
+    }
+    // The same frame with the sources sampled bicubically (`RenderParams::sampling`).
+    let bicubic = RenderParams {
+        sampling: Sampling::Bicubic,
+        ..RenderParams::default()
+    };
+    if let Ok(sharper) = Renderer::new(&out.model, sources(), bicubic) {
+        g.bench_function("vga_bicubic", |b| {
+            b.iter(|| sharper.render_into(&camera, &mut buffers))
         });
     }
     g.finish();

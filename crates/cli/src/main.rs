@@ -250,6 +250,20 @@ struct RefineArgs {
     /// (`mirrors`).
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     reflections: OnOff,
+    /// How the renderer reads a captured view's colour between its pixels: bilinear (2x2
+    /// pixels) or Catmull-Rom bicubic (4x4 pixels), which blurs textures less
+    /// (docs/render.md, "Bicubic sampling").
+    #[arg(long, value_enum, default_value_t = SamplingArg::Bilinear)]
+    sampling: SamplingArg,
+}
+
+/// How the renderer reads a view between its pixels.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum SamplingArg {
+    /// The 2x2 pixels around the point.
+    Bilinear,
+    /// The 4x4 pixels around the point, weighted by the Catmull-Rom spline.
+    Bicubic,
 }
 
 /// The two sources the renderer's depth refinement compares.
@@ -274,12 +288,16 @@ impl RefineArgs {
         if self.reflections == OnOff::On {
             params.reflections = Some(aibr::render::Reflections::default());
         }
+        params.sampling = match self.sampling {
+            SamplingArg::Bilinear => aibr::render::Sampling::Bilinear,
+            SamplingArg::Bicubic => aibr::render::Sampling::Bicubic,
+        };
         params
     }
 
     /// Records the search the renderer takes in a JSON object: `reach_voxels`,
-    /// `refine_steps`, `reach_penalty` and `refine_pair` (null without the refinement), and
-    /// `reflections` (true or false).
+    /// `refine_steps`, `reach_penalty` and `refine_pair` (null without the refinement),
+    /// `reflections` (true or false) and `sampling` ("bilinear" or "bicubic").
     fn record(&self, out: &mut serde_json::Value) {
         let params = self.render_params();
         let r = params.refine;
@@ -290,6 +308,11 @@ impl RefineArgs {
             map.insert("reach_penalty".into(), r.map(|r| r.penalty).into());
             let pair = r.map(|r| if r.bracketing { "across" } else { "nearest" });
             map.insert("refine_pair".into(), pair.into());
+            let sampling = match params.sampling {
+                aibr::render::Sampling::Bilinear => "bilinear",
+                aibr::render::Sampling::Bicubic => "bicubic",
+            };
+            map.insert("sampling".into(), sampling.into());
         }
     }
 }

@@ -26,10 +26,11 @@
 //! (default 0.5, half-way). `REFLECT=1` turns on [`RenderParams::reflections`] (its
 //! defaults), with the mirrors the model lacks taken from the masks' visual hull
 //! ([`Renderer::with_visual_hull`]); `REFLECT=model` without them. `SPECULAR=g` sets their
-//! `specular_rms` (grey levels; only with `REFLECT`).
+//! `specular_rms` (grey levels; only with `REFLECT`). `SAMPLING=bicubic` samples the sources
+//! bicubically ([`aibr_render::Sampling`]; `SAMPLING=bilinear`, the default, bilinearly).
 
 use aibr_camera::Angle;
-use aibr_render::{RenderParams, Renderer, SourceView, metrics};
+use aibr_render::{RenderParams, Renderer, Sampling, SourceView, metrics};
 use aibr_scene::{Frame, RenderOptions, catalogue};
 use aibr_voxel::{ColoringParams, ColumnTest, Criterion, View, VoxelGrid, voxel_coloring};
 use image::GenericImage;
@@ -127,6 +128,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     return Err(format!("SPECULAR={g} needs REFLECT=1 or REFLECT=model").into());
                 };
                 r.specular_rms = g.parse().map_err(|e| format!("SPECULAR={g}: {e}"))?;
+            }
+            if let Ok(sampling) = std::env::var("SAMPLING") {
+                params.sampling = match sampling.as_str() {
+                    "bilinear" => Sampling::Bilinear,
+                    "bicubic" => Sampling::Bicubic,
+                    other => {
+                        return Err(
+                            format!("SAMPLING={other}: expected bilinear or bicubic").into()
+                        );
+                    }
+                };
             }
             if let Some(k) = std::env::var("K").ok().and_then(|k| k.parse().ok()) {
                 params.k = k;

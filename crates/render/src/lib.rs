@@ -8,7 +8,9 @@
 //!   then refined near the model's surface where two sources agree best, the nearest and
 //!   the nearest across the virtual camera from it ([`DepthRefinement`]), which undoes most
 //!   of voxel coloring's fattening. Where the model has no surface the focal surface at the
-//!   object's depth stands in. Each pixel reports its [`Coverage`].
+//!   object's depth stands in. Each pixel reports its [`Coverage`]. The blend samples its
+//!   sources bilinearly, or bicubically ([`RenderParams::sampling`], [`Sampling`]), which
+//!   keeps more of their texture at some cost a frame.
 //! - [`reflection`]: optionally ([`RenderParams::reflections`]), a mirror in the model is
 //!   rendered as a reflection of the lab: a pixel takes what the nearest source sees reflected
 //!   in the same direction, as a turntable's still camera and surroundings allow.
@@ -58,5 +60,5 @@ pub use exr_io::write_depth_exr;
 pub use reflection::{MirrorCounts, MirrorTally, Reflections};
 pub use renderer::{
     Coverage, DepthRefinement, MAX_CANDIDATES, MAX_FILL_CLOSING, MAX_REFINE_PENALTY,
-    MAX_REFINE_STEPS, RenderParams, RenderedView, Renderer, SourceView,
+    MAX_REFINE_STEPS, RenderParams, RenderedView, Renderer, Sampling, SourceView,
 };

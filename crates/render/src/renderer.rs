@@ -53,6 +53,22 @@ pub struct RenderParams {
     /// bytes per voxel of the model's grid, and a normal per surface voxel (with the hull's
     /// mirrors, 8 bytes more per voxel).
     pub reflections: Option<Reflections>,
+    /// How the blend reads a source's colour between its pixel centres at the points the
+    /// model gives (default [`Sampling::Bilinear`]). The focal surface of the fallback, the
+    /// depth refinement's colour costs and the reflections are sampled bilinearly either way.
+    pub sampling: Sampling,
+}
+
+/// How the renderer reads a source image between its pixel centres.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Sampling {
+    /// The 2x2 pixels around the point, weighted by their distance along each axis.
+    #[default]
+    Bilinear,
+    /// The 4x4 pixels around the point, weighted by the Catmull-Rom spline along each axis:
+    /// sharper, since bilinear weights blur a texture half-way between pixels, at about
+    /// three times the cost of each sample (`docs/render.md`, "Bicubic sampling").
+    Bicubic,
 }
 
 /// Depth refinement near the model's surface.
@@ -128,6 +144,7 @@ impl Default for RenderParams {
             refine: Some(DepthRefinement::default()),
             fill: Some(1),
             reflections: None,
+            sampling: Sampling::Bilinear,
         }
     }
 }
@@ -1012,7 +1029,10 @@ impl<'a> Renderer<'a> {
                     depth[i] = f32::INFINITY;
                     coverage[i] = Coverage::Nothing as u8;
                 } else {
-                    rgb[3 * i..3 * i + 3].copy_from_slice(&self.mix(&found[..n], &penalty[..n]));
+                    // The focal plane only stands in for the surface: sharper samples of
+                    // sources that disagree there would buy nothing (`Sampling`).
+                    let colour = self.mix(&found[..n], &penalty[..n], Sampling::Bilinear);
+                    rgb[3 * i..3 * i + 3].copy_from_slice(&colour);
                     depth[i] = focal;
                     coverage[i] = Coverage::Fallback as u8;
                 }
@@ -1157,7 +1177,7 @@ impl<'a> Renderer<'a> {
                 pen[l] = penalty_of([x[l], y[l], z[l]], [ex, ey, ez], inv_eye, rw);
             }
         }
-        Some(self.mix(&found[..n], &penalty[..n]))
+        Some(self.mix(&found[..n], &penalty[..n], self.params.sampling))
     }
 
     /// The blend of the candidates that see `p` within `tolerance`, or, when none does, of
@@ -1174,12 +1194,13 @@ impl<'a> Renderer<'a> {
     }
 
     /// The blend proper: the `k` sources of least penalty among `found` (source, `u`, `v`),
-    /// with weights `(1 - p / p_(k+1)) / p`, sampled at their `(u, v)`. `found` is not empty.
+    /// with weights `(1 - p / p_(k+1)) / p`, sampled at their `(u, v)` as `sampling` says.
+    /// `found` is not empty.
     // Always inlined, like `bilinear`: left out of line (as the compiler chose), the frame
     // took about 4-7% longer in alternated runs, with the same output (session 12,
     // `docs/render.md`).
     #[inline(always)]
-    fn mix(&self, found: &[(usize, f32, f32)], penalty: &[f32]) -> [u8; 3] {
+    fn mix(&self, found: &[(usize, f32, f32)], penalty: &[f32], sampling: Sampling) -> [u8; 3] {
         let n = found.len();
         // The sources in penalty order; ties keep the candidates' order.
         let mut order = [0u8; MAX_CANDIDATES];
@@ -1207,7 +1228,11 @@ impl<'a> Renderer<'a> {
             // Reaches zero at the threshold, and grows without bound as the penalty vanishes, so
             // a virtual camera at a source reproduces it (epipole consistency).
             let wgt = (1.0 - pen * inv_threshold).max(0.0) / (pen + 1e-6) + 1e-12;
-            let c = bilinear(&self.sources[i].image, u, v);
+            let image = &self.sources[i].image;
+            let c = match sampling {
+                Sampling::Bilinear => bilinear(image, u, v),
+                Sampling::Bicubic => bicubic(image, u, v),
+            };
             for ch in 0..4 {
                 acc[ch] += wgt as f32 * c[ch];
             }
@@ -1309,6 +1334,65 @@ impl FocalRow {
             len: candidates.len().min(MAX_CANDIDATES),
         })
     }
+}
+
+/// The Catmull-Rom weights of the four pixels at -1, 0, 1 and 2 from a sample a fraction `t`
+/// (0 to 1) of the way from pixel 0 to pixel 1: Keys' cubic convolution with `a = -1/2`,
+/// which passes through the pixels, sums to 1 and reproduces quadratic ramps.
+#[inline(always)]
+fn catmull_rom(t: f32) -> [f32; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        0.5 * (2.0 * t2 - t3 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (4.0 * t2 - 3.0 * t3 + t),
+        0.5 * (t3 - t2),
+    ]
+}
+
+/// Catmull-Rom bicubic sample at `(u, v)` (pixel centres at integers, `0 <= u <= width - 1`,
+/// `0 <= v <= height - 1`), lanes as [`bilinear`] gives them: the 4x4 pixels around the point
+/// weighted by [`catmull_rom`] along each axis, rows and columns beyond the image taken from
+/// its edge. Near a sharp edge a lane can overshoot 0-255 (the spline's negative lobes).
+/// Images less than 4 pixels wide or high are sampled bilinearly.
+#[inline(always)]
+pub(crate) fn bicubic(img: &RgbImage, u: f32, v: f32) -> [f32; 4] {
+    let (w, h) = (img.width() as i32, img.height() as i32);
+    if w < 4 || h < 4 {
+        return bilinear(img, u, v);
+    }
+    let raw = img.as_raw();
+    // `as` saturates a NaN to 0; the clamps keep every index inside the image.
+    let (x0, y0) = (
+        (u.floor() as i32).clamp(0, w - 1),
+        (v.floor() as i32).clamp(0, h - 1),
+    );
+    let (wx, wy) = (
+        catmull_rom((u - x0 as f32).clamp(0.0, 1.0)),
+        catmull_rom((v - y0 as f32).clamp(0.0, 1.0)),
+    );
+    let column: [usize; 4] =
+        std::array::from_fn(|i| (x0 + i as i32 - 1).clamp(0, w - 1) as usize * 3);
+    let mut out = [0f32; 4];
+    for (j, wj) in wy.into_iter().enumerate() {
+        let row = (y0 + j as i32 - 1).clamp(0, h - 1) as usize * w as usize * 3;
+        let mut sum = [0f32; 3];
+        for (&x, wi) in column.iter().zip(wx) {
+            let Some(&[r, g, b]) = raw
+                .get(row + x..row + x + 3)
+                .and_then(|t| <&[u8; 3]>::try_from(t).ok())
+            else {
+                continue;
+            };
+            sum[0] += wi * f32::from(r);
+            sum[1] += wi * f32::from(g);
+            sum[2] += wi * f32::from(b);
+        }
+        for (o, s) in out.iter_mut().zip(sum) {
+            *o += wj * s;
+        }
+    }
+    out
 }
 
 /// Bilinear sample at `(u, v)` (pixel centres at integers, `0 <= u <= width - 1`,
@@ -1504,6 +1588,76 @@ mod tests {
                 proptest::prop_assert!((lane - want).abs() <= 1e-3, "lane {}: {} against {}", c, lane, want);
             }
             proptest::prop_assert_eq!(got[3], 0.0);
+        }
+    }
+
+    proptest::proptest! {
+        /// The bicubic sample's four lanes: red, green and blue as the Catmull-Rom formula
+        /// gives them from the 4x4 texels around `(u, v)`, those beyond the image taken from
+        /// its edge, and zero.
+        #[test]
+        fn bicubic_samples_the_sixteen_texels_around(
+            pixels in proptest::collection::vec(proptest::num::u8::ANY, 6 * 5 * 3),
+            u in 0.0f32..=5.0,
+            v in 0.0f32..=4.0,
+        ) {
+            let img = RgbImage::from_raw(6, 5, pixels).ok_or(proptest::test_runner::TestCaseError::fail("image"))?;
+            let (x0, y0) = (u.floor() as i64, v.floor() as i64);
+            let (fx, fy) = (u as f64 - x0 as f64, v as f64 - y0 as f64);
+            // Keys' cubic convolution kernel with a = -1/2, as the textbook writes it.
+            let keys = |d: f64| {
+                let d = d.abs();
+                if d < 1.0 {
+                    1.5 * d * d * d - 2.5 * d * d + 1.0
+                } else if d < 2.0 {
+                    -0.5 * d * d * d + 2.5 * d * d - 4.0 * d + 2.0
+                } else {
+                    0.0
+                }
+            };
+            let texel = |x: i64, y: i64, c: usize| {
+                img.get_pixel(x.clamp(0, 5) as u32, y.clamp(0, 4) as u32).0[c] as f64
+            };
+            let got = bicubic(&img, u, v);
+            for (c, &lane) in got.iter().take(3).enumerate() {
+                let mut want = 0.0;
+                for j in -1..=2 {
+                    for i in -1..=2 {
+                        want += texel(x0 + i, y0 + j, c) * keys(i as f64 - fx) * keys(j as f64 - fy);
+                    }
+                }
+                proptest::prop_assert!((lane as f64 - want).abs() <= 1e-2, "lane {}: {} against {}", c, lane, want);
+            }
+            proptest::prop_assert_eq!(got[3], 0.0);
+        }
+    }
+
+    /// At a pixel centre the bicubic sample is the pixel; between centres it follows a ramp
+    /// exactly, where bilinear weights would too, and a parabola, where they would not.
+    #[test]
+    fn bicubic_passes_through_the_pixels_and_follows_a_parabola() {
+        let parabola = |x: u32, y: u32| 40 + 5 * x + y * y;
+        let img = RgbImage::from_fn(12, 10, |x, y| {
+            let p = parabola(x, y) as u8; // at most 176
+            Rgb([p, 255 - p, (x * 20) as u8])
+        });
+        for (x, y) in [(0, 0), (5, 4), (11, 9), (11, 0)] {
+            let got = bicubic(&img, x as f32, y as f32);
+            let want = img.get_pixel(x, y).0.map(f32::from);
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() < 1e-3,
+                    "{x}, {y}: {got:?} against {want:?}"
+                );
+            }
+        }
+        // Inside, away from the clamped edge: the parabola between its integer samples.
+        for (u, v) in [(3.25f32, 2.5f32), (6.5, 5.75), (8.1, 3.3)] {
+            let want = 40.0 + 5.0 * u + v * v;
+            let got = bicubic(&img, u, v)[0];
+            assert!((got - want).abs() < 1e-3, "{u}, {v}: {got} against {want}");
+            let flat = bilinear(&img, u, v)[0];
+            assert!((flat - want).abs() > 0.05, "bilinear at {u}, {v}: {flat}");
         }
     }
 
