@@ -66,8 +66,9 @@ pub enum Sampling {
     #[default]
     Bilinear,
     /// The 4x4 pixels around the point, weighted by the Catmull-Rom spline along each axis:
-    /// sharper, since bilinear weights blur a texture half-way between pixels, at about
-    /// three times the cost of each sample (`docs/render.md`, "Bicubic sampling").
+    /// sharper, since bilinear weights blur a texture half-way between pixels. Half-way
+    /// views of the catalogue render up to 0.5 dB better, more the denser the views, and
+    /// the bench frame takes about 6% longer (`docs/render.md`, "Bicubic sampling").
     Bicubic,
 }
 
@@ -1338,7 +1339,8 @@ impl FocalRow {
 
 /// The Catmull-Rom weights of the four pixels at -1, 0, 1 and 2 from a sample a fraction `t`
 /// (0 to 1) of the way from pixel 0 to pixel 1: Keys' cubic convolution with `a = -1/2`,
-/// which passes through the pixels, sums to 1 and reproduces quadratic ramps.
+/// which passes through the pixels, sums to 1 and reproduces polynomials up to the second
+/// degree.
 #[inline(always)]
 fn catmull_rom(t: f32) -> [f32; 4] {
     let (t2, t3) = (t * t, t * t * t);
@@ -1589,9 +1591,7 @@ mod tests {
             }
             proptest::prop_assert_eq!(got[3], 0.0);
         }
-    }
 
-    proptest::proptest! {
         /// The bicubic sample's four lanes: red, green and blue as the Catmull-Rom formula
         /// gives them from the 4x4 texels around `(u, v)`, those beyond the image taken from
         /// its edge, and zero.
@@ -1632,8 +1632,9 @@ mod tests {
         }
     }
 
-    /// At a pixel centre the bicubic sample is the pixel; between centres it follows a ramp
-    /// exactly, where bilinear weights would too, and a parabola, where they would not.
+    /// At a pixel centre the bicubic sample is the pixel; between centres it follows an image
+    /// that is a ramp along x and a parabola along y exactly, where bilinear weights miss the
+    /// parabola.
     #[test]
     fn bicubic_passes_through_the_pixels_and_follows_a_parabola() {
         let parabola = |x: u32, y: u32| 40 + 5 * x + y * y;
