@@ -1375,7 +1375,8 @@ pub(crate) fn bicubic(img: &RgbImage, u: f32, v: f32) -> [f32; 4] {
     );
     let mut out = [0f32; 4];
     // Away from the image's edge (nearly every sample), each row's four texels are two pairs
-    // of neighbours, weighed four at a time as the bilinear sample weighs its four.
+    // of neighbours, weighed four at a time as the bilinear sample weighs its four. (One path
+    // for every sample, each texel read at its clamped column, was 3% slower a frame.)
     if x0 >= 1 && x0 + 2 < w && y0 >= 1 && y0 + 2 < h {
         let first = (y0 - 1) as usize * w as usize * 3 + (x0 - 1) as usize * 3;
         for (j, wj) in wy.into_iter().enumerate() {
