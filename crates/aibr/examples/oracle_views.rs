@@ -16,15 +16,17 @@
 //! with `BUDGET` and with `COMPARE` views (default 48) the same way.
 //!
 //! No estimate picks a better next view among the same moves than this oracle does at each
-//! step (a whole sequence chosen otherwise could still end a little better: greedy choice is
-//! not optimal). So where the oracle with `BUDGET` views renders worse than uniform capture
-//! with `COMPARE`, issue 7's goal is most likely out of reach of planners of that kind there,
-//! and where it renders better, the goal is reachable and the estimate is what falls short
-//! (`docs/results.md`, "Session 37"). It reports each step's choice and its figures on the
-//! side from which `mirror`'s panel is seen (the object's pans 20 to 160 degrees) and off
-//! it. Each step renders a novel view set per candidate: on a 2-core
-//! machine, `mirror` from 12 to 24 views took 41 minutes at `STEP` 1 with `SPLITS` 1, and 37
-//! minutes at `STEP` 3 with `SPLITS` 3, and 72 minutes at `STEP` 3 with `SPLITS` 7.
+//! step, on the novel views it is scored on (a whole sequence chosen otherwise could still end
+//! a little better: greedy choice is not optimal). Its choices fit those novel views: on a grid
+//! coarser than `aibr eval`'s degree they can render well there and worse between, so measure
+//! the views it chose on every degree (`PANS`, below) before setting its figures against
+//! uniform capture's (`docs/results.md`, "Session 63": chosen on a 3-degree grid, every
+//! oracle's views fell short of uniform capture with 48 on every degree). It reports each
+//! step's choice and its figures on the side from which `mirror`'s panel is seen (the object's
+//! pans 20 to 160 degrees) and off it. Each step renders a novel view set per candidate: on a
+//! 2-core machine, `mirror` from 12 to 24 views took 41 minutes at `STEP` 1 with `SPLITS` 1, 37
+//! minutes at `STEP` 3 with `SPLITS` 3, and 72 minutes at `STEP` 3 with `SPLITS` 7 (the
+//! eighths).
 //!
 //! With `PANS` set in the environment (pans in degrees, comma-separated, as the oracle's
 //! last line prints them) it chooses nothing: it measures that view set, then uniform capture
