@@ -198,7 +198,6 @@ fn main() -> Result<()> {
         shots: HashMap::new(),
         truths: HashMap::new(),
     };
-    let (range, pan_step) = (oracle.rig.range(), oracle.rig.step());
     if let Ok(list) = std::env::var("PANS") {
         let mut pans = Vec::new();
         for text in list.split(',') {
@@ -215,6 +214,7 @@ fn main() -> Result<()> {
         );
         return measure_uniform(&mut oracle, [pans.len(), compare]);
     }
+    let (range, pan_step) = (oracle.rig.range(), oracle.rig.step());
     let mut pans = Vec::new();
     for p in uniform_pans(&range, pan_step, INITIAL) {
         pans.push(oracle.shoot(p)?);
