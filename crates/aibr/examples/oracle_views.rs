@@ -25,8 +25,8 @@
 //! step's choice and its figures on the side from which `mirror`'s panel is seen (the object's
 //! pans 20 to 160 degrees) and off it. Each step renders a novel view set per candidate: on a
 //! 2-core machine, `mirror` from 12 to 24 views took 41 minutes at `STEP` 1 with `SPLITS` 1, 37
-//! minutes at `STEP` 3 with `SPLITS` 3, and 72 minutes at `STEP` 3 with `SPLITS` 7 (the
-//! eighths).
+//! minutes at `STEP` 3 with `SPLITS` 3, 72 minutes at `STEP` 3 with `SPLITS` 7 (the eighths),
+//! and about 85 minutes at `STEP` 1 with `SPLITS` 3.
 //!
 //! With `PANS` set in the environment (pans in degrees, comma-separated, as the oracle's
 //! last line prints them) it chooses nothing: it measures that view set, then uniform capture
