@@ -97,6 +97,11 @@ struct Oracle {
 }
 
 impl Oracle {
+    /// Whether the novel or captured view at `pan` sees `mirror`'s panel side.
+    fn on_panel_side(&self, pan: Angle) -> bool {
+        panel_side().contains(pan + self.rig.turn())
+    }
+
     /// Moves to `pan` and captures there, once per pan; returns the pan reached (a whole
     /// number of the turntable's steps).
     fn shoot(&mut self, pan: Angle) -> Result<Angle> {
@@ -135,7 +140,6 @@ impl Oracle {
         let model = voxel_coloring(&grid, &views, &ColoringParams::default())?.model;
         let sources = shots.iter().map(|s| s.source.clone()).collect();
         let renderer = Renderer::new(&model, sources, RenderParams::default())?;
-        let (arc, turn) = (panel_side(), self.rig.turn());
         let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
         for (pan, camera) in self.rig.novel_views(pans, self.step)? {
             let (truth, mask) = match self.truths.entry(pan.radians().to_bits()) {
@@ -145,7 +149,7 @@ impl Oracle {
             let view = renderer.render(&camera)?;
             let psnr = metrics::psnr(truth, &view.rgb, Some(mask))?;
             all.push(psnr);
-            if arc.contains(pan + turn) {
+            if self.on_panel_side(pan) {
                 side.push(psnr);
             } else {
                 rest.push(psnr);
@@ -250,7 +254,7 @@ fn main() -> Result<()> {
             break;
         };
         pans.push(pan);
-        let side = if panel_side().contains(pan + oracle.rig.turn()) {
+        let side = if oracle.on_panel_side(pan) {
             "panel side"
         } else {
             "off it"
