@@ -118,6 +118,16 @@ impl Oracle {
         Ok(reached)
     }
 
+    /// Captures `n` views spread uniformly over the rig's pan range, as `aibr eval` places
+    /// them; returns the pans reached.
+    fn shoot_uniform(&mut self, n: usize) -> Result<Vec<Angle>> {
+        let (range, step) = (self.rig.range(), self.rig.step());
+        uniform_pans(&range, step, n)
+            .into_iter()
+            .map(|p| self.shoot(p))
+            .collect()
+    }
+
     /// Reconstructs `pans` (already shot) and measures their novel views.
     fn measure(&mut self, pans: &[Angle]) -> Result<Figures> {
         let shots = pans
@@ -218,11 +228,7 @@ fn main() -> Result<()> {
         );
         return measure_uniform(&mut oracle, [pans.len(), compare]);
     }
-    let (range, pan_step) = (oracle.rig.range(), oracle.rig.step());
-    let mut pans = Vec::new();
-    for p in uniform_pans(&range, pan_step, INITIAL) {
-        pans.push(oracle.shoot(p)?);
-    }
+    let mut pans = oracle.shoot_uniform(INITIAL)?;
     let start = oracle.measure(&pans)?;
     println!(
         "{scene}@{turn}, {INITIAL} uniform views: {}",
@@ -274,16 +280,12 @@ fn main() -> Result<()> {
 
 /// Measures uniform capture with each of `counts` views (once when the two are equal).
 fn measure_uniform(oracle: &mut Oracle, counts: [usize; 2]) -> Result<()> {
-    let (range, pan_step) = (oracle.rig.range(), oracle.rig.step());
     let mut last: Option<(usize, Figures)> = None;
     for n in counts {
         let figures = match last {
             Some((m, f)) if m == n => f,
             _ => {
-                let mut uniform = Vec::new();
-                for p in uniform_pans(&range, pan_step, n) {
-                    uniform.push(oracle.shoot(p)?);
-                }
+                let uniform = oracle.shoot_uniform(n)?;
                 oracle.measure(&uniform)?
             }
         };
