@@ -334,16 +334,17 @@ fn exchange(
         for (i, &pan) in pans.iter().enumerate() {
             let mut rest = pans.clone();
             rest.remove(i);
-            without.push((pan, rest.clone(), oracle.measure(&rest)?.mean));
+            let mean = oracle.measure(&rest)?.mean;
+            without.push((pan, rest, mean));
         }
         without.sort_by(|a, b| b.2.total_cmp(&a.2));
         let mut kept = None;
-        for (dropped, rest, lost) in without.into_iter().take(DROPS) {
+        for (dropped, rest, mean_without) in without.into_iter().take(DROPS) {
             let Some((added, f)) = oracle.best_addition(&rest, splits)? else {
                 continue;
             };
             println!(
-                "round {round}: - {:.2} deg ({}, {lost:.2} dB without it) + {:.2} deg ({}): {}",
+                "round {round}: - {:.2} deg ({}, {mean_without:.2} dB without it) + {:.2} deg ({}): {}",
                 dropped.degrees(),
                 oracle.side_name(dropped),
                 added.degrees(),
