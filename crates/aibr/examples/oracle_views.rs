@@ -250,6 +250,9 @@ fn main() -> Result<()> {
     if !(step > 0.0) {
         return Err(format!("STEP {step}: must be positive").into());
     }
+    if std::env::var_os("EXCHANGES").is_some() && std::env::var_os("PANS").is_none() {
+        return Err("EXCHANGES searches from the view set in PANS: set PANS too".into());
+    }
     let rig = SimRig::from_spec(&format!("sim:{scene}@{turn}"))?;
     let mut oracle = Oracle {
         calibration: rig.calibration()?,
