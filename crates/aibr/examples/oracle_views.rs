@@ -45,11 +45,16 @@
 //! that many degrees either way, within the pan range, keeping a move when the set renders
 //! better, pass after pass until a pass keeps none: a search near the set, where an exchange
 //! searches far from it. A pass renders two sets per view: about 6 minutes with 24 views.
+//!
+//! With `SHIFTED` set (to anything), every set is scored on the novel views half a `STEP`
+//! along from the usual ones (at `STEP` 1, the half degrees), leaving out those within half
+//! a degree (or half a `STEP`, if less) of a captured view as `aibr eval` does: a grid no
+//! search scored, to tell whether a set's figures hold off the views it was chosen against.
 
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 
-use aibr::camera::{Aabb, Angle};
+use aibr::camera::{Aabb, Angle, Camera};
 use aibr::render::{RenderParams, Renderer, SourceView, metrics};
 use aibr::voxel::{ColoringParams, View, VoxelGrid, voxel_coloring};
 use aibr::{Calibration, EvalRig, FrameSource, ObjectArc, SimRig, Turntable, uniform_pans};
@@ -107,6 +112,8 @@ struct Oracle {
     calibration: Calibration,
     volume: Aabb,
     step: Angle,
+    /// Whether novel views are scored half a step along from the usual grid.
+    shifted: bool,
     shots: HashMap<u64, Shot>,
     truths: HashMap<u64, (RgbImage, GrayImage)>,
 }
@@ -180,6 +187,27 @@ impl Oracle {
         Ok(best)
     }
 
+    /// The novel views a set of `pans` is scored on: `aibr eval`'s every `step`, or, if
+    /// `shifted`, those half a step along, with the views near a captured one left out as
+    /// `aibr eval` leaves them out (within half a degree, or half a step if less).
+    fn novel_views(&self, pans: &[Angle]) -> Result<Vec<(Angle, Camera)>> {
+        if !self.shifted {
+            return Ok(self.rig.novel_views(pans, self.step)?);
+        }
+        let half = 0.5 * self.step.radians();
+        let min = self.rig.range().min().radians();
+        let taken = half.min(0.5f64.to_radians());
+        let mut views = self.rig.novel_views(pans, Angle::from_radians(half))?;
+        views.retain(|(pan, _)| {
+            let k = ((pan.radians() - min) / half).round() as i64;
+            k % 2 == 1
+                && pans
+                    .iter()
+                    .all(|p| (p.radians() - pan.radians()).abs() >= taken)
+        });
+        Ok(views)
+    }
+
     /// Reconstructs `pans` (already shot) and measures their novel views.
     fn measure(&mut self, pans: &[Angle]) -> Result<Figures> {
         let shots = pans
@@ -203,7 +231,7 @@ impl Oracle {
         let sources = shots.iter().map(|s| s.source.clone()).collect();
         let renderer = Renderer::new(&model, sources, RenderParams::default())?;
         let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
-        for (pan, camera) in self.rig.novel_views(pans, self.step)? {
+        for (pan, camera) in self.novel_views(pans)? {
             let (truth, mask) = match self.truths.entry(pan.radians().to_bits()) {
                 Entry::Occupied(e) => e.into_mut(),
                 Entry::Vacant(e) => e.insert(self.rig.truth(pan, &camera)?),
@@ -275,6 +303,7 @@ fn main() -> Result<()> {
         volume: rig.volume(),
         rig,
         step: Angle::from_degrees(step),
+        shifted: std::env::var_os("SHIFTED").is_some(),
         shots: HashMap::new(),
         truths: HashMap::new(),
     };
