@@ -114,6 +114,9 @@ struct Oracle {
     step: Angle,
     /// Whether novel views are scored half a step along from the usual grid.
     shifted: bool,
+    /// Pans whose novel views are left out besides those of the set measured: another
+    /// set's, to score two sets on the angles neither captured.
+    also_left_out: Vec<Angle>,
     shots: HashMap<u64, Shot>,
     truths: HashMap<u64, (RgbImage, GrayImage)>,
 }
@@ -231,7 +234,8 @@ impl Oracle {
         let sources = shots.iter().map(|s| s.source.clone()).collect();
         let renderer = Renderer::new(&model, sources, RenderParams::default())?;
         let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
-        for (pan, camera) in self.novel_views(pans)? {
+        let left_out: Vec<Angle> = pans.iter().chain(&self.also_left_out).copied().collect();
+        for (pan, camera) in self.novel_views(&left_out)? {
             let (truth, mask) = match self.truths.entry(pan.radians().to_bits()) {
                 Entry::Occupied(e) => e.into_mut(),
                 Entry::Vacant(e) => e.insert(self.rig.truth(pan, &camera)?),
@@ -304,6 +308,7 @@ fn main() -> Result<()> {
         rig,
         step: Angle::from_degrees(step),
         shifted: std::env::var_os("SHIFTED").is_some(),
+        also_left_out: Vec::new(),
         shots: HashMap::new(),
         truths: HashMap::new(),
     };
@@ -342,7 +347,8 @@ fn main() -> Result<()> {
                 describe(&figures)
             );
         }
-        return measure_uniform(&mut oracle, [pans.len(), compare]);
+        measure_uniform(&mut oracle, [pans.len(), compare])?;
+        return measure_common(&mut oracle, &pans, compare);
     }
     let mut pans = oracle.shoot_uniform(INITIAL)?;
     let start = oracle.measure(&pans)?;
@@ -476,6 +482,24 @@ fn nudge(
         println!("after pass {pass} ({moved} moved): {}", list(pans));
     }
     Ok(figures)
+}
+
+/// Measures `pans` and uniform capture with `compare` views on the novel views neither
+/// captured, so that neither mean gains from leaving out angles the other scores.
+fn measure_common(oracle: &mut Oracle, pans: &[Angle], compare: usize) -> Result<()> {
+    let uniform = oracle.shoot_uniform(compare)?;
+    oracle.also_left_out = uniform.clone();
+    let given = oracle.measure(pans)?;
+    oracle.also_left_out = pans.to_vec();
+    let other = oracle.measure(&uniform)?;
+    oracle.also_left_out.clear();
+    println!(
+        "on the angles neither captured: the {} given views {}; uniform {compare} views {}",
+        pans.len(),
+        describe(&given),
+        describe(&other)
+    );
+    Ok(())
 }
 
 /// Measures uniform capture with each of `counts` views (once when the two are equal).
