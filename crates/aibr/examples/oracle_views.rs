@@ -32,7 +32,9 @@
 //! last line prints them) it chooses nothing: it measures that view set, then uniform capture
 //! with as many views and with `COMPARE`, every `STEP` degrees. A set chosen against the
 //! novel views every 3 degrees can so be measured on every degree, two thirds of them views
-//! it was not chosen against.
+//! it was not chosen against. Last it measures the set and uniform capture with `COMPARE`
+//! views on the novel views neither captured: each mean before leaves out the angles its own
+//! views took, and a set whose views sit where rendering is worst leaves out its worst.
 //!
 //! With `EXCHANGES` set too (a count of rounds), it then searches from that set by exchange
 //! instead of by addition: each round drops the view the set loses least without and adds
@@ -41,7 +43,7 @@
 //! a round that keeps none. The set's size stays; `BUDGET` is not used. A round renders some
 //! 90 view sets at `SPLITS` 3 with 24 views: about 13 minutes on a 2-core machine.
 //!
-//! With `NUDGE` set (degrees; after the exchanges, if any), it then moves each view in turn
+//! With `NUDGE` set too (degrees; after the exchanges, if any), it then moves each view in turn
 //! that many degrees either way, within the pan range, keeping a move when the set renders
 //! better, pass after pass until a pass keeps none: a search near the set, where an exchange
 //! searches far from it. A pass renders two sets per view: about 6 minutes with 24 views.
