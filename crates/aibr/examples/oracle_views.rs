@@ -323,13 +323,12 @@ fn main() -> Result<()> {
             }
             pans.push(reached);
         }
-        let figures = oracle.measure(&pans)?;
+        let mut figures = oracle.measure(&pans)?;
         println!(
             "{scene}@{turn}, {} given views: {}",
             pans.len(),
             describe(&figures)
         );
-        let mut figures = figures;
         if let Ok(text) = std::env::var("EXCHANGES") {
             let rounds = count("EXCHANGES", &text)?;
             figures = exchange(&mut oracle, &mut pans, figures, splits, rounds)?;
