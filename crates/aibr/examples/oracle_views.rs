@@ -116,9 +116,6 @@ struct Oracle {
     step: Angle,
     /// Whether novel views are scored half a step along from the usual grid.
     shifted: bool,
-    /// Pans whose novel views are left out besides those of the set measured: another
-    /// set's, to score two sets on the angles neither captured.
-    also_left_out: Vec<Angle>,
     shots: HashMap<u64, Shot>,
     truths: HashMap<u64, (RgbImage, GrayImage)>,
 }
@@ -215,6 +212,12 @@ impl Oracle {
 
     /// Reconstructs `pans` (already shot) and measures their novel views.
     fn measure(&mut self, pans: &[Angle]) -> Result<Figures> {
+        self.measure_leaving_out(pans, &[])
+    }
+
+    /// [`Oracle::measure`], leaving out the novel views near the pans of `others` too: two
+    /// sets measured each leaving out the other's are scored on the angles neither captured.
+    fn measure_leaving_out(&mut self, pans: &[Angle], others: &[Angle]) -> Result<Figures> {
         let shots = pans
             .iter()
             .map(|p| {
@@ -236,7 +239,7 @@ impl Oracle {
         let sources = shots.iter().map(|s| s.source.clone()).collect();
         let renderer = Renderer::new(&model, sources, RenderParams::default())?;
         let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
-        let left_out: Vec<Angle> = pans.iter().chain(&self.also_left_out).copied().collect();
+        let left_out: Vec<Angle> = pans.iter().chain(others).copied().collect();
         for (pan, camera) in self.novel_views(&left_out)? {
             let (truth, mask) = match self.truths.entry(pan.radians().to_bits()) {
                 Entry::Occupied(e) => e.into_mut(),
@@ -296,6 +299,10 @@ fn main() -> Result<()> {
             );
         }
     }
+    let rounds = match std::env::var("EXCHANGES") {
+        Ok(text) => Some(count("EXCHANGES", &text)?),
+        Err(_) => None,
+    };
     let nudge_by = match std::env::var("NUDGE") {
         Ok(text) => match number("NUDGE", &text)? {
             d if d > 0.0 => Some(Angle::from_degrees(d)),
@@ -310,7 +317,6 @@ fn main() -> Result<()> {
         rig,
         step: Angle::from_degrees(step),
         shifted: std::env::var_os("SHIFTED").is_some(),
-        also_left_out: Vec::new(),
         shots: HashMap::new(),
         truths: HashMap::new(),
     };
@@ -329,8 +335,7 @@ fn main() -> Result<()> {
             pans.len(),
             describe(&figures)
         );
-        if let Ok(text) = std::env::var("EXCHANGES") {
-            let rounds = count("EXCHANGES", &text)?;
+        if let Some(rounds) = rounds {
             figures = exchange(&mut oracle, &mut pans, figures, splits, rounds)?;
             println!(
                 "exchanged {} views: {}\n{}",
@@ -489,11 +494,8 @@ fn nudge(
 /// captured, so that neither mean gains from leaving out angles the other scores.
 fn measure_common(oracle: &mut Oracle, pans: &[Angle], compare: usize) -> Result<()> {
     let uniform = oracle.shoot_uniform(compare)?;
-    oracle.also_left_out = uniform.clone();
-    let given = oracle.measure(pans)?;
-    oracle.also_left_out = pans.to_vec();
-    let other = oracle.measure(&uniform)?;
-    oracle.also_left_out.clear();
+    let given = oracle.measure_leaving_out(pans, &uniform)?;
+    let other = oracle.measure_leaving_out(&uniform, pans)?;
     println!(
         "on the angles neither captured: the {} given views {}; uniform {compare} views {}",
         pans.len(),
