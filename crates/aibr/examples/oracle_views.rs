@@ -47,6 +47,12 @@
 //! that many degrees either way, within the pan range, keeping a move when the set renders
 //! better, pass after pass until a pass keeps none: a search near the set, where an exchange
 //! searches far from it. A pass renders two sets per view: about 6 minutes with 24 views.
+//! Several sizes, comma-separated (`NUDGE=2,1`), are taken in turn, each until a pass keeps
+//! none, without rendering anything twice.
+//!
+//! With `FIXED` set too (to anything), the exchanges and moves leave the set's views that are
+//! among the 12 initial uniform views where they are, as a planner starting from them must:
+//! the search then asks what the other views can do.
 //!
 //! With `SHIFTED` set (to anything), every set is scored on the novel views half a `STEP`
 //! along from the usual ones (at `STEP` 1, the half degrees), leaving out those within half
@@ -292,7 +298,7 @@ fn main() -> Result<()> {
     if !(step > 0.0) {
         return Err(format!("STEP {step}: must be positive").into());
     }
-    for search in ["EXCHANGES", "NUDGE"] {
+    for search in ["EXCHANGES", "NUDGE", "FIXED"] {
         if std::env::var_os(search).is_some() && std::env::var_os("PANS").is_none() {
             return Err(
                 format!("{search} searches from the view set in PANS: set PANS too").into(),
@@ -303,13 +309,19 @@ fn main() -> Result<()> {
         Ok(text) => Some(count("EXCHANGES", &text)?),
         Err(_) => None,
     };
-    let nudge_by = match std::env::var("NUDGE") {
-        Ok(text) => match number("NUDGE", &text)? {
-            d if d > 0.0 => Some(Angle::from_degrees(d)),
-            d => return Err(format!("NUDGE {d}: must be positive").into()),
-        },
-        Err(_) => None,
-    };
+    let mut nudges = Vec::new();
+    if let Ok(text) = std::env::var("NUDGE") {
+        for size in text.split(',') {
+            match number("NUDGE", size)? {
+                d if d > 0.0 => nudges.push(Angle::from_degrees(d)),
+                d => return Err(format!("NUDGE {d}: must be positive").into()),
+            }
+        }
+    }
+    let fixed = std::env::var_os("FIXED").is_some();
+    if fixed && rounds.is_none() && nudges.is_empty() {
+        return Err("FIXED holds views still in a search: set EXCHANGES or NUDGE too".into());
+    }
     let rig = SimRig::from_spec(&format!("sim:{scene}@{turn}"))?;
     let mut oracle = Oracle {
         calibration: rig.calibration()?,
@@ -335,8 +347,17 @@ fn main() -> Result<()> {
             pans.len(),
             describe(&figures)
         );
+        let mut held = Vec::new();
+        if fixed {
+            held = oracle.shoot_uniform(INITIAL)?;
+            held.retain(|p| pans.contains(p));
+            println!(
+                "held where they are: {} of the {INITIAL} initial views",
+                held.len()
+            );
+        }
         if let Some(rounds) = rounds {
-            figures = exchange(&mut oracle, &mut pans, figures, splits, rounds)?;
+            figures = exchange(&mut oracle, &mut pans, &held, figures, splits, rounds)?;
             println!(
                 "exchanged {} views: {}\n{}",
                 pans.len(),
@@ -344,8 +365,8 @@ fn main() -> Result<()> {
                 describe(&figures)
             );
         }
-        if let Some(by) = nudge_by {
-            figures = nudge(&mut oracle, &mut pans, figures, by)?;
+        for by in nudges {
+            figures = nudge(&mut oracle, &mut pans, &held, figures, by)?;
             println!(
                 "nudged {} views: {}\n{}",
                 pans.len(),
@@ -388,13 +409,15 @@ fn list(pans: &mut [Angle]) -> String {
 }
 
 /// Exchanges views of `pans` (which render as `figures`) for better ones, up to `rounds`
-/// times: a round measures the set without each of its views, then, for the [`DROPS`] views
+/// times, never dropping those in `held`: a round measures the set without each of its other
+/// views, then, for the [`DROPS`] views
 /// whose loss costs least in turn, adds the best of `splits` pans in every arc of the set
 /// without it ([`Oracle::best_addition`]); the first such exchange that renders better than
 /// the set is kept. It stops when a round keeps none.
 fn exchange(
     oracle: &mut Oracle,
     pans: &mut Vec<Angle>,
+    held: &[Angle],
     mut figures: Figures,
     splits: usize,
     rounds: usize,
@@ -402,6 +425,9 @@ fn exchange(
     for round in 1..=rounds {
         let mut without = Vec::with_capacity(pans.len());
         for (i, &pan) in pans.iter().enumerate() {
+            if held.contains(&pan) {
+                continue;
+            }
             let mut rest = pans.clone();
             rest.remove(i);
             let mean = oracle.measure(&rest)?.mean;
@@ -438,20 +464,25 @@ fn exchange(
     Ok(figures)
 }
 
-/// Moves each view of `pans` (which render as `figures`) in turn by `by` either way within
-/// the rig's pan range, keeping the better move when it renders better than the set, pass
-/// after pass until a pass keeps none.
+/// Moves each view of `pans` (which render as `figures`) but those in `held` in turn by `by`
+/// either way within the rig's pan range, keeping the better move when it renders better than
+/// the set, pass after pass until a pass keeps none.
 fn nudge(
     oracle: &mut Oracle,
     pans: &mut [Angle],
+    held: &[Angle],
     mut figures: Figures,
     by: Angle,
 ) -> Result<Figures> {
     let range = oracle.rig.range();
+    let size = format!("{:.1}-degree", by.degrees());
     for pass in 1.. {
         let mut moved = 0;
         for i in 0..pans.len() {
             let from = pans[i];
+            if held.contains(&from) {
+                continue;
+            }
             let mut best: Option<(Angle, Figures)> = None;
             for to in [from - by, from + by] {
                 if to.radians() < range.min().radians() || to.radians() > range.max().radians() {
@@ -470,7 +501,7 @@ fn nudge(
             }
             if let Some((to, f)) = best {
                 println!(
-                    "pass {pass}: {:.2} -> {:.2} deg ({}): {}",
+                    "{size} pass {pass}: {:.2} -> {:.2} deg ({}): {}",
                     from.degrees(),
                     to.degrees(),
                     oracle.side_name(to),
@@ -482,10 +513,10 @@ fn nudge(
             }
         }
         if moved == 0 {
-            println!("pass {pass}: no move renders better; stopped");
+            println!("{size} pass {pass}: no move renders better; stopped");
             break;
         }
-        println!("after pass {pass} ({moved} moved): {}", list(pans));
+        println!("after {size} pass {pass} ({moved} moved): {}", list(pans));
     }
     Ok(figures)
 }
