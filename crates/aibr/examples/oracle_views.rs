@@ -298,7 +298,7 @@ fn main() -> Result<()> {
     if !(step > 0.0) {
         return Err(format!("STEP {step}: must be positive").into());
     }
-    for search in ["EXCHANGES", "NUDGE", "FIXED"] {
+    for search in ["EXCHANGES", "NUDGE"] {
         if std::env::var_os(search).is_some() && std::env::var_os("PANS").is_none() {
             return Err(
                 format!("{search} searches from the view set in PANS: set PANS too").into(),
@@ -320,7 +320,7 @@ fn main() -> Result<()> {
     }
     let fixed = std::env::var_os("FIXED").is_some();
     if fixed && rounds.is_none() && nudges.is_empty() {
-        return Err("FIXED holds views still in a search: set EXCHANGES or NUDGE too".into());
+        return Err("FIXED keeps views in place in a search: set EXCHANGES or NUDGE too".into());
     }
     let rig = SimRig::from_spec(&format!("sim:{scene}@{turn}"))?;
     let mut oracle = Oracle {
@@ -410,10 +410,9 @@ fn list(pans: &mut [Angle]) -> String {
 
 /// Exchanges views of `pans` (which render as `figures`) for better ones, up to `rounds`
 /// times, never dropping those in `held`: a round measures the set without each of its other
-/// views, then, for the [`DROPS`] views
-/// whose loss costs least in turn, adds the best of `splits` pans in every arc of the set
-/// without it ([`Oracle::best_addition`]); the first such exchange that renders better than
-/// the set is kept. It stops when a round keeps none.
+/// views, then, for the [`DROPS`] views whose loss costs least in turn, adds the best of
+/// `splits` pans in every arc of the set without it ([`Oracle::best_addition`]); the first
+/// such exchange that renders better than the set is kept. It stops when a round keeps none.
 fn exchange(
     oracle: &mut Oracle,
     pans: &mut Vec<Angle>,
