@@ -62,7 +62,7 @@
 use std::collections::hash_map::Entry;
 use std::collections::{HashMap, HashSet};
 
-use aibr::camera::{Aabb, Angle, Camera};
+use aibr::camera::{Aabb, Angle};
 use aibr::render::{RenderParams, Renderer, SourceView, metrics};
 use aibr::voxel::{ColoringParams, View, VoxelGrid, voxel_coloring};
 use aibr::{Calibration, EvalRig, FrameSource, ObjectArc, SimRig, Turntable, uniform_pans};
@@ -120,8 +120,9 @@ struct Oracle {
     calibration: Calibration,
     volume: Aabb,
     step: Angle,
-    /// Whether novel views are scored half a step along from the usual grid.
-    shifted: bool,
+    /// How far along from `aibr eval`'s grid the novel views lie: zero, or half a `step`
+    /// with `SHIFTED`.
+    offset: Angle,
     shots: HashMap<u64, Shot>,
     truths: HashMap<u64, (RgbImage, GrayImage)>,
 }
@@ -195,27 +196,6 @@ impl Oracle {
         Ok(best)
     }
 
-    /// The novel views a set of `pans` is scored on: `aibr eval`'s every `step`, or, if
-    /// `shifted`, those half a step along, with the views near a captured one left out as
-    /// `aibr eval` leaves them out (within half a degree, or half a step if less).
-    fn novel_views(&self, pans: &[Angle]) -> Result<Vec<(Angle, Camera)>> {
-        if !self.shifted {
-            return Ok(self.rig.novel_views(pans, self.step)?);
-        }
-        let half = 0.5 * self.step.radians();
-        let min = self.rig.range().min().radians();
-        let taken = half.min(0.5f64.to_radians());
-        let mut views = self.rig.novel_views(pans, Angle::from_radians(half))?;
-        views.retain(|(pan, _)| {
-            let k = ((pan.radians() - min) / half).round() as i64;
-            k % 2 == 1
-                && pans
-                    .iter()
-                    .all(|p| (p.radians() - pan.radians()).abs() >= taken)
-        });
-        Ok(views)
-    }
-
     /// Reconstructs `pans` (already shot) and measures their novel views.
     fn measure(&mut self, pans: &[Angle]) -> Result<Figures> {
         self.measure_leaving_out(pans, &[])
@@ -246,7 +226,10 @@ impl Oracle {
         let renderer = Renderer::new(&model, sources, RenderParams::default())?;
         let (mut all, mut side, mut rest) = (Vec::new(), Vec::new(), Vec::new());
         let left_out: Vec<Angle> = pans.iter().chain(others).copied().collect();
-        for (pan, camera) in self.novel_views(&left_out)? {
+        for (pan, camera) in self
+            .rig
+            .novel_views_offset(&left_out, self.step, self.offset)?
+        {
             let (truth, mask) = match self.truths.entry(pan.radians().to_bits()) {
                 Entry::Occupied(e) => e.into_mut(),
                 Entry::Vacant(e) => e.insert(self.rig.truth(pan, &camera)?),
@@ -328,7 +311,10 @@ fn main() -> Result<()> {
         volume: rig.volume(),
         rig,
         step: Angle::from_degrees(step),
-        shifted: std::env::var_os("SHIFTED").is_some(),
+        offset: match std::env::var_os("SHIFTED") {
+            Some(_) => Angle::from_degrees(0.5 * step),
+            None => Angle::ZERO,
+        },
         shots: HashMap::new(),
         truths: HashMap::new(),
     };

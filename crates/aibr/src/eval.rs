@@ -54,12 +54,37 @@ impl EvalRig for SimRig {
     }
 
     fn novel_views(&self, captured: &[Angle], step: Angle) -> Result<Vec<(Angle, Camera)>> {
+        self.novel_views_offset(captured, step, Angle::ZERO)
+    }
+
+    fn truth(&self, _pan: Angle, camera: &Camera) -> Result<(RgbImage, GrayImage)> {
+        let truth = self.scene().render(camera, &RenderOptions::default())?;
+        Ok((truth.rgb8(), truth.mask))
+    }
+
+    fn true_geometry(&self) -> Option<&Scene> {
+        Some(self.scene())
+    }
+}
+
+impl SimRig {
+    /// [`EvalRig::novel_views`] on a grid moved `offset` along: every `step` from the pan
+    /// range's start plus `offset`, leaving out the angles near a captured view by the same
+    /// rule as the grid itself (within half a `step`, never more than half a degree). With
+    /// `offset` half a step it scores the angles between the grid's, which a choice of views
+    /// fitted to the grid was not chosen against.
+    pub fn novel_views_offset(
+        &self,
+        captured: &[Angle],
+        step: Angle,
+        offset: Angle,
+    ) -> Result<Vec<(Angle, Camera)>> {
         let calibration = self.calibration()?;
         let range = self.range();
         let step = step.radians();
         let taken = captured_within(step);
         let mut out = Vec::new();
-        let mut a = range.min().radians();
+        let mut a = range.min().radians() + offset.radians();
         while a <= range.max().radians() + 1e-9 {
             let pan = Angle::from_radians(a);
             a += step;
@@ -71,15 +96,6 @@ impl EvalRig for SimRig {
             }
         }
         Ok(out)
-    }
-
-    fn truth(&self, _pan: Angle, camera: &Camera) -> Result<(RgbImage, GrayImage)> {
-        let truth = self.scene().render(camera, &RenderOptions::default())?;
-        Ok((truth.rgb8(), truth.mask))
-    }
-
-    fn true_geometry(&self) -> Option<&Scene> {
-        Some(self.scene())
     }
 }
 
@@ -889,6 +905,34 @@ mod tests {
         let ten = (lo + 10.0).round() as i64;
         assert!(!novel.contains(&ten) && novel.contains(&(ten + 1)));
         assert_eq!(novel.len(), (hi - lo).round() as usize);
+        Ok(())
+    }
+
+    #[test]
+    fn a_grid_moved_half_a_step_lies_between_the_grid_angles_and_leaves_out_captures_alike()
+    -> Result<()> {
+        let rig = SimRig::new("lambertian")?;
+        let range = rig.range();
+        let (lo, hi) = (range.min().degrees(), range.max().degrees());
+        let deg = Angle::from_degrees;
+        let captured = [deg(lo + 10.4)];
+        let plain = rig.novel_views(&captured, deg(1.0))?;
+        let unmoved = rig.novel_views_offset(&captured, deg(1.0), Angle::ZERO)?;
+        let pans = |views: &[(Angle, Camera)]| -> Vec<f64> {
+            views.iter().map(|(p, _)| p.degrees()).collect()
+        };
+        assert_eq!(pans(&unmoved), pans(&plain));
+        // The half degrees: 10.5 lies 0.1 degree from the capture and is left out, 9.5 lies
+        // 0.9 from it and is kept, and the grid ends half a degree before the range does.
+        let moved = pans(&rig.novel_views_offset(&captured, deg(1.0), deg(0.5))?);
+        let off = |pan: f64| pan - lo;
+        assert!(
+            moved.iter().all(|&p| (off(p).fract() - 0.5).abs() < 1e-6),
+            "{moved:?}"
+        );
+        assert!(!moved.iter().any(|&p| (off(p) - 10.5).abs() < 1e-6));
+        assert!(moved.iter().any(|&p| (off(p) - 9.5).abs() < 1e-6));
+        assert_eq!(moved.len(), (hi - lo).round() as usize - 1);
         Ok(())
     }
 }
