@@ -14,7 +14,8 @@ When EVAL.json was run with `--arc`, a second table splits the angles neither ca
 arc of the object (the mirror's side of `mirror` with `--arc 20:160`): each strategy's mean on
 the arc and off it, as `aibr eval` splits its own novel views (an angle is on the arc when the
 pan plus the scene's turn lies between the arc's ends, ends included). For a run made without
-`--arc`, give the arc as `ARC=FROM:TO` (degrees) in the environment.
+`--arc`, give the arc as `ARC=FROM:TO` (degrees) in the environment; it is read only when the
+run recorded no arc. The table is left out when some turn has no such angle on one side.
 """
 import json
 import os
