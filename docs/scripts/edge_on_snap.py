@@ -6,14 +6,15 @@ them: how much the planner loses by aiming at its model's faces rather than the 
     python3 docs/scripts/edge_on_snap.py table LOG EVAL.json UNIFORM.json
 
 `pans` reads active capture's 24 views at each turn of EVAL.json (`aibr eval --turns ...
---json`) and prints, per turn, the distance of the view nearest each true edge-on pan within
-1.5 degrees (its signed error; `there` within 0.05 degree, about a step of the turntable,
-where it is left; `none` when no view lies that near), then a line
-`TURN PANS`, the views with those moved onto the true pans, as `oracle_views` takes them in
-`PANS`. `table` reads the output of `oracle_views` run on those lines (each run's output after
-a line `turn TURN`) and prints, per turn, the planner's mean masked PSNR (from EVAL.json), the
-moved set's, uniform capture's 48 views' (from UNIFORM.json), and the moved set against uniform
-capture's 48 on the angles neither captured, on the mirror's side and off it.
+--json`) and prints, per turn, the distance of the view nearest each true edge-on pan within 1.5
+degrees (its signed error; `there` within 0.05 degree, about a step of the turntable, where it
+is left; `none` when no view lies that near), then a line `TURN PANS`, the views with those
+moved onto the true pans, as `oracle_views` takes them in `PANS`. `table` reads the output of
+`oracle_views` run on those lines (each run's output after a line `turn TURN`) and prints, per
+turn, the planner's mean masked PSNR (from EVAL.json), the moved set's, uniform capture's 48
+views' (from UNIFORM.json), and the moved set against uniform capture's 48 on the angles neither
+captured, on the mirror's side and off it. It reads the JSON with `common_24_48.py`'s helpers,
+beside it.
 
 The box is `mirror`'s (`crates/scene/src/catalogue.rs`): faces at x = -0.06 and 0.055 m and y =
 -0.04 and 0.04 m, vertical; the camera circles at 0.55 m from the axis (`CircularMotion::ring`),
@@ -22,10 +23,11 @@ at pan 0 on the -Y side. At object pan phi (the pan plus the scene's turn) its c
 face y = b where cos phi = -b / 0.55. The mirror panel lies half a millimetre in front of the -X
 face; its edge-on pans are within 0.06 degree of the face's.
 """
-import json
 import math
 import re
 import sys
+
+from common_24_48 import checkpoint, load
 
 RADIUS_M = 0.55
 PAN_LIMIT_DEG = 158.97  # the rig's range, +-2.775 rad
@@ -49,32 +51,11 @@ def edge_on_object_pans():
     return out
 
 
-def load(path):
-    try:
-        with open(path) as f:
-            return json.load(f)
-    except (OSError, ValueError) as e:
-        sys.exit(f"{path}: {e}")
-
-
-def checkpoint(path, doc, turn_deg, strategy, views):
-    for turn in doc["turns"]:
-        if turn["turn_deg"] != turn_deg:
-            continue
-        for r in turn["results"]:
-            if r["strategy"] != strategy:
-                continue
-            for c in r["checkpoints"]:
-                if c["views"] == views:
-                    return c
-    sys.exit(f"{path}: turn {turn_deg} has no checkpoint for {strategy} at {views} views")
-
-
 def pans(path):
     doc = load(path)
     for turn in doc["turns"]:
         t = turn["turn_deg"]
-        views = sorted(checkpoint(path, doc, t, "active", 24)["pans_deg"])
+        views = sorted(checkpoint(path, doc["turns"], t, "active", 24)["pans_deg"])
         moved = list(views)
         notes = []
         for face, object_pan in edge_on_object_pans():
@@ -116,8 +97,9 @@ def table(log, path, uniform_path):
             given = float(m.group(1))
         elif (m := NEITHER.match(line)) and turn is not None and given is not None:
             a, ap, ao, u, up, uo = (float(x) for x in m.groups())
-            planner = checkpoint(path, doc, turn, "active", 24)["mean_masked_psnr_db"]
-            u48 = checkpoint(uniform_path, uniform, turn, "uniform", 48)["mean_masked_psnr_db"]
+            planner = checkpoint(path, doc["turns"], turn, "active", 24)["mean_masked_psnr_db"]
+            u48 = checkpoint(uniform_path, uniform["turns"], turn, "uniform", 48)
+            u48 = u48["mean_masked_psnr_db"]
             rows.append((turn, planner, given, u48, a, u, ap - up, ao - uo))
     if not rows:
         sys.exit(f"{log}: no turn with a moved set's figures")
