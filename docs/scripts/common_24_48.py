@@ -13,94 +13,56 @@ the means over the turns. Uniform capture's 48 views are taken from UNIFORM.json
 When EVAL.json was run with `--arc`, a second table splits the angles neither captured by that
 arc of the object (the mirror's side of `mirror` with `--arc 20:160`): each strategy's mean on
 the arc and off it, as `aibr eval` splits its own novel views (an angle is on the arc when the
-pan plus the scene's turn lies between the arc's ends, ends included). For a run made without
-`--arc`, give the arc as `ARC=FROM:TO` (degrees) in the environment; it is read only when the
-run recorded no arc. The table is left out when some turn has no such angle on one side.
+pan plus the scene's turn, wrapped to -180..180, lies between the arc's ends, ends included).
+For a run made without `--arc`, give the arc as `ARC=FROM:TO` (degrees) in the environment; it
+is read only when the run recorded no arc. The table is left out when some turn has no such
+angle on one side. The JSON helpers are `compare_turns.py`'s, beside it.
 """
-import json
 import os
 import sys
 
-
-def mean(values):
-    return sum(values) / len(values)
-
-
-def load(path):
-    try:
-        with open(path) as f:
-            return json.load(f)
-    except (OSError, ValueError) as e:
-        sys.exit(f"{path}: {e}")
-
-
-def checkpoint(path, turns, turn_deg, strategy, views):
-    """The checkpoint of `strategy` at `views` views in the run at `turn_deg`."""
-    for turn in turns:
-        if turn["turn_deg"] != turn_deg:
-            continue
-        for r in turn["results"]:
-            if r["strategy"] != strategy:
-                continue
-            for c in r["checkpoints"]:
-                if c["views"] == views:
-                    return c
-    sys.exit(f"{path}: turn {turn_deg} has no checkpoint for {strategy} at {views} views")
-
-
-def on_arc(arc, pan_deg):
-    """Whether the novel view at `pan_deg` sees the object's arc `arc` (`aibr eval`'s rule)."""
-    span = (arc["to_deg"] - arc["from_deg"]) % 360.0
-    return (pan_deg + arc["scene_turn_deg"] - arc["from_deg"]) % 360.0 <= span + 1e-9
-
-
-def arc_from_env(turn_deg):
-    """The arc `ARC=FROM:TO` names, at the scene's turn `turn_deg`; None without `ARC`."""
-    text = os.environ.get("ARC")
-    if text is None:
-        return None
-    try:
-        start, end = (float(x) for x in text.split(":"))
-    except ValueError:
-        sys.exit(f"ARC={text}: expected FROM:TO in degrees, such as 20:160")
-    return {"from_deg": start, "to_deg": end, "scene_turn_deg": turn_deg}
-
-
-def active_on_arc(arc, pans_deg):
-    """How many of the captured views at `pans_deg` lie on the object's arc."""
-    return sum(1 for p in pans_deg if on_arc(arc, p))
+from compare_turns import checkpoint, load_turns, mean, object_arc, on_arc
 
 
 def main(path, uniform_path):
-    doc = load(path)
-    uniform_turns = load(uniform_path)["turns"] if uniform_path != path else doc["turns"]
+    turns = load_turns(path)
+    uniform_turns = load_turns(uniform_path) if uniform_path != path else turns
+    env_arc = os.environ.get("ARC")
     rows = []
     sides = []
-    for turn in doc["turns"]:
-        active = checkpoint(path, doc["turns"], turn["turn_deg"], "active", 24)
-        uniform = checkpoint(uniform_path, uniform_turns, turn["turn_deg"], "uniform", 48)
+    for turn in sorted(turns):
+        active = checkpoint(turns[turn], "active", 24, path, turn)
+        if turn not in uniform_turns:
+            sys.exit(f"{uniform_path}: no turn {turn:g}")
+        uniform = checkpoint(uniform_turns[turn], "uniform", 48, uniform_path, turn)
         a = {round(v["pan_deg"], 6): v["masked_psnr_db"] for v in active["novel_views"]}
         u = {round(v["pan_deg"], 6): v["masked_psnr_db"] for v in uniform["novel_views"]}
         both = set(a) & set(u)
         rows.append((
-            turn["turn_deg"],
+            turn,
             mean(list(a.values())),
             mean(list(u.values())),
             mean([a[p] for p in both]),
             mean([u[p] for p in both]),
             len(both),
         ))
-        arc = active.get("arc") or arc_from_env(turn["turn_deg"])
-        inside = [p for p in both if arc is not None and on_arc(arc, p)]
-        outside = [p for p in both if arc is not None and not on_arc(arc, p)]
+        arc = active.get("arc")
+        if arc is not None:
+            lo, hi, scene_turn = arc["from_deg"], arc["to_deg"], arc["scene_turn_deg"]
+        elif env_arc is not None:
+            (lo, hi), scene_turn = object_arc(env_arc), turn
+        else:
+            continue
+        inside = {p for p in both if on_arc(p, scene_turn, lo, hi)}
+        outside = both - inside
         if inside and outside:
             sides.append((
-                turn["turn_deg"],
+                turn,
                 mean([a[p] for p in inside]),
                 mean([u[p] for p in inside]),
                 mean([a[p] for p in outside]),
                 mean([u[p] for p in outside]),
-                active_on_arc(arc, active["pans_deg"]),
+                sum(1 for p in active["pans_deg"] if on_arc(p, scene_turn, lo, hi)),
             ))
     print("turn   own angles: active 24, uniform 48, lead | neither captured: the same, angles")
     for t, a, u, ac, uc, n in rows:

@@ -71,6 +71,14 @@ def strategy(results, name, path):
     sys.exit(f"{path}: no {name} results")
 
 
+def checkpoint(results, name, views, path, turn):
+    """The checkpoint at `views` views of strategy `name`."""
+    for c in strategy(results, name, path)["checkpoints"]:
+        if c["views"] == views:
+            return c
+    sys.exit(f"{path}: turn {turn:g}: {name} has no checkpoint at {views} views")
+
+
 def mean(xs):
     return sum(xs) / max(1, len(xs))
 

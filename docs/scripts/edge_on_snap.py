@@ -13,7 +13,7 @@ moved onto the true pans, as `oracle_views` takes them in `PANS`. `table` reads 
 `oracle_views` run on those lines (each run's output after a line `turn TURN`) and prints, per
 turn, the planner's mean masked PSNR (from EVAL.json), the moved set's, uniform capture's 48
 views' (from UNIFORM.json), and the moved set against uniform capture's 48 on the angles neither
-captured, on the mirror's side and off it. It reads the JSON with `common_24_48.py`'s helpers,
+captured, on the mirror's side and off it. It reads the JSON with `compare_turns.py`'s helpers,
 beside it.
 
 The box is `mirror`'s (`crates/scene/src/catalogue.rs`): faces at x = -0.06 and 0.055 m and y =
@@ -27,16 +27,12 @@ import math
 import re
 import sys
 
-from common_24_48 import checkpoint, load
+from compare_turns import checkpoint, load_turns, mean, wrap
 
 RADIUS_M = 0.55
 PAN_LIMIT_DEG = 158.97  # the rig's range, +-2.775 rad
 SNAP_DEG = 1.5
 STEP_DEG = 0.05  # about a step of the PTU-46 (0.0514 degree): a view this near is there already
-
-
-def wrap(deg):
-    return (deg + 180.0) % 360.0 - 180.0
 
 
 def edge_on_object_pans():
@@ -51,14 +47,16 @@ def edge_on_object_pans():
     return out
 
 
+EDGE_ON = edge_on_object_pans()
+
+
 def pans(path):
-    doc = load(path)
-    for turn in doc["turns"]:
-        t = turn["turn_deg"]
-        views = sorted(checkpoint(path, doc["turns"], t, "active", 24)["pans_deg"])
+    turns = load_turns(path)
+    for t in sorted(turns):
+        views = sorted(checkpoint(turns[t], "active", 24, path, t)["pans_deg"])
         moved = list(views)
         notes = []
-        for face, object_pan in edge_on_object_pans():
+        for face, object_pan in EDGE_ON:
             target = wrap(object_pan - t)
             if abs(target) > PAN_LIMIT_DEG:
                 continue
@@ -84,10 +82,11 @@ GIVEN = re.compile(r"\S+, 24 given views: (\S+) dB")
 
 
 def table(log, path, uniform_path):
-    doc, uniform = load(path), load(uniform_path)
+    turns, uniform = load_turns(path), load_turns(uniform_path)
     rows, turn, given = [], None, None
     try:
-        lines = open(log).read().splitlines()
+        with open(log) as f:
+            lines = f.read().splitlines()
     except OSError as e:
         sys.exit(f"{log}: {e}")
     for line in lines:
@@ -97,8 +96,10 @@ def table(log, path, uniform_path):
             given = float(m.group(1))
         elif (m := NEITHER.match(line)) and turn is not None and given is not None:
             a, ap, ao, u, up, uo = (float(x) for x in m.groups())
-            planner = checkpoint(path, doc["turns"], turn, "active", 24)["mean_masked_psnr_db"]
-            u48 = checkpoint(uniform_path, uniform["turns"], turn, "uniform", 48)
+            if turn not in turns or turn not in uniform:
+                sys.exit(f"{log}: turn {turn:g} is not in both {path} and {uniform_path}")
+            planner = checkpoint(turns[turn], "active", 24, path, turn)["mean_masked_psnr_db"]
+            u48 = checkpoint(uniform[turn], "uniform", 48, uniform_path, turn)
             u48 = u48["mean_masked_psnr_db"]
             rows.append((turn, planner, given, u48, a, u, ap - up, ao - uo))
     if not rows:
@@ -108,10 +109,9 @@ def table(log, path, uniform_path):
     for t, p, g, u48, a, u, dp, do in rows:
         print(f"{t:5} {p:8.2f} {g:6.2f} {u48:10.2f} {g - p:+16.2f} | {a:25.2f} {u:8.2f}"
               f" {a - u:+6.2f}; {dp:+6.2f} {do:+6.2f}")
-    n = len(rows)
-    p, g, u48, a, u, dp, do = (sum(r[i] for r in rows) / n for i in range(1, 8))
+    p, g, u48, a, u, dp, do = (mean([r[i] for r in rows]) for i in range(1, 8))
     print(f"mean  {p:8.2f} {g:6.2f} {u48:10.2f} {g - p:+16.2f} | {a:25.2f} {u:8.2f} {a - u:+6.2f};"
-          f" {dp:+6.2f} {do:+6.2f} ({n} turns)")
+          f" {dp:+6.2f} {do:+6.2f} ({len(rows)} turns)")
 
 
 if __name__ == "__main__":

@@ -15,17 +15,8 @@ Given several files, it also says whether they hold the same view sets turn by t
 geometry, and only then does a difference between the files measure the geometry alone.
 """
 import argparse
-import sys
 
-from compare_turns import arc_psnr, load_turns, mean, object_arc, stderr, strategy
-
-
-def checkpoint(results, name, views, path, turn):
-    """The checkpoint at `views` views of strategy `name`."""
-    for c in strategy(results, name, path)["checkpoints"]:
-        if c["views"] == views:
-            return c
-    sys.exit(f"{path}: turn {turn:g}: {name} has no checkpoint at {views} views")
+from compare_turns import arc_psnr, checkpoint, load_turns, mean, object_arc, stderr
 
 
 def view_counts(value):
