@@ -1,0 +1,223 @@
+//! How far the capture loop's face aims on `mirror` lie from the box's true edge-on pans.
+//!
+//! `cargo run --release -p aibr --example face_aims -- [--mean] WORK [WORK...]`
+//!
+//! Reads the active capture session of every turn in `WORK`, the folder `aibr eval --rig
+//! sim:mirror --turns ... --strategy active --work WORK` kept (`WORK/turnT/mirror@T-active`). For
+//! each count of views from the session's initial views to one short of its last, it rebuilds
+//! the model the capture loop planned the next view from (those views in capture order, voxel
+//! coloring at the session's grid with its masks, as `aibr capture` does), finds the model's
+//! flat faces with `aibr_voxel::planar_faces` and their edge-on pans with
+//! `aibr_consistency::edge_on_pans`: the loop's aims. Each aim is set against the nearest true
+//! edge-on pan, the pan from which the camera centre lies in the plane of a face of `mirror`'s
+//! box (`aibr_scene::catalogue::mirror`: x = -0.06 and 0.055 m, y = -0.04 and 0.04 m, in the
+//! scene's frame, which is the model's: `SceneCamera` turns the calibration, not the scene).
+//!
+//! Prints per turn and count the faces found (the angle of each normal from the true face's,
+//! degrees; its offset's error, millimetres, positive outward) and the aims' signed errors
+//! (degrees); then the mean absolute error of all aims, by count of views and overall, and of
+//! the aims that became views: a captured view within 1.5 degrees of a true edge-on pan, and
+//! its error. With several `WORK` folders (runs of the same turns with different planners) it
+//! prints the summary of each. With `--mean` the faces' planes are those of sessions 25-70
+//! (`FaceParams::profile_quantile` `None`: the mean of the voting normals and the densest
+//! offset) instead of the default refit. `docs/results.md`, "Session 71".
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use aibr::camera::Angle;
+use aibr::consistency::edge_on_pans;
+use aibr::voxel::{ColoringParams, FaceParams, PlanarFace, planar_faces};
+use aibr::{Session, reconstruct_loaded};
+use nalgebra::Vector3;
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+/// `mirror`'s box: each face's outward normal and offset (metres) in the scene's frame.
+const TRUE_FACES: [([f64; 2], f64); 4] = [
+    ([1.0, 0.0], 0.055),
+    ([-1.0, 0.0], 0.06),
+    ([0.0, 1.0], 0.04),
+    ([0.0, -1.0], 0.04),
+];
+/// A captured view this near a true edge-on pan was aimed at it (degrees).
+const SERVED_DEG: f64 = 1.5;
+
+fn true_faces() -> Vec<PlanarFace> {
+    TRUE_FACES
+        .iter()
+        .map(|&([x, y], offset_m)| PlanarFace {
+            normal: Vector3::new(x, y, 0.0),
+            offset_m,
+            voxels: 0,
+        })
+        .collect()
+}
+
+/// Signed degrees from `b` to `a`, round the circle.
+fn degrees_between(a: Angle, b: Angle) -> f64 {
+    a.wrapped_difference(b).radians().to_degrees()
+}
+
+/// The errors one work folder's sessions give.
+#[derive(Default)]
+struct Summary {
+    /// Per count of views: the aims' absolute errors, degrees.
+    by_count: BTreeMap<usize, Vec<f64>>,
+    /// The captured views within `SERVED_DEG` of a true edge-on pan: signed errors.
+    served: Vec<f64>,
+}
+
+impl Summary {
+    fn print(&self, work: &Path) {
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+        println!("summary of {}", work.display());
+        let mut all = Vec::new();
+        for (count, errors) in &self.by_count {
+            println!(
+                "  {count:>2} views: {:>3} aims, mean |error| {:.3} degree",
+                errors.len(),
+                mean(errors)
+            );
+            all.extend_from_slice(errors);
+        }
+        println!(
+            "  all: {} aims, mean |error| {:.3} degree, largest {:.3}",
+            all.len(),
+            mean(&all),
+            all.iter().copied().fold(0.0, f64::max)
+        );
+        let abs: Vec<f64> = self.served.iter().map(|e| e.abs()).collect();
+        println!(
+            "  views within {SERVED_DEG} degree of a true edge-on pan: {}, mean |error| {:.3}, \
+             mean signed {:+.3}, largest {:.3}",
+            abs.len(),
+            mean(&abs),
+            mean(&self.served),
+            abs.iter().copied().fold(0.0, f64::max)
+        );
+    }
+}
+
+/// The session folders of `work`, by turn.
+fn sessions(work: &Path) -> Result<Vec<(f64, PathBuf)>> {
+    let mut out = Vec::new();
+    let entries =
+        std::fs::read_dir(work).map_err(|e| format!("{}: cannot list: {e}", work.display()))?;
+    for entry in entries {
+        let entry = entry.map_err(|e| format!("{}: cannot list: {e}", work.display()))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(turn) = name.strip_prefix("turn") else {
+            continue;
+        };
+        let turn_deg: f64 = turn
+            .parse()
+            .map_err(|_| format!("{}: {name:?} is not turnDEGREES", work.display()))?;
+        let name = if turn.parse::<f64>().ok() == Some(0.0) {
+            "mirror-active".to_owned()
+        } else {
+            format!("mirror@{turn}-active")
+        };
+        let dir = entry.path().join(name);
+        if dir.is_dir() {
+            out.push((turn_deg, dir));
+        }
+    }
+    if out.is_empty() {
+        return Err(format!("{}: no turnT/mirror@T-active sessions", work.display()).into());
+    }
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(out)
+}
+
+fn measure(work: &Path, face_params: &FaceParams) -> Result<Summary> {
+    let mut summary = Summary::default();
+    let truth = true_faces();
+    for (turn, dir) in sessions(work)? {
+        let session = Session::open(&dir)?;
+        let views = session.load_views()?;
+        let parameters = &session.file().parameters;
+        let motion = session.calibration()?.motion;
+        let (range, _) = session.turntable()?;
+        // Every true edge-on pan in the range, with its face.
+        let true_pans: Vec<(usize, Angle)> = truth
+            .iter()
+            .enumerate()
+            .flat_map(|(f, face)| {
+                edge_on_pans(face, &motion, &range)
+                    .into_iter()
+                    .map(move |p| (f, p))
+            })
+            .collect();
+        let nearest = |pan: Angle| {
+            true_pans
+                .iter()
+                .map(|&(f, p)| (f, degrees_between(pan, p)))
+                .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        };
+        println!("turn {turn}");
+        for count in parameters.initial..views.len() {
+            let (rec, _) = reconstruct_loaded(
+                &session,
+                &views[..count],
+                parameters.grid,
+                &ColoringParams::default(),
+            )?;
+            let faces = planar_faces(&rec.model, face_params)?;
+            let mut line = format!("  {count:>2} views:");
+            for face in &faces {
+                let Some((f, t)) = truth.iter().enumerate().max_by(|a, b| {
+                    a.1.normal
+                        .dot(&face.normal)
+                        .total_cmp(&b.1.normal.dot(&face.normal))
+                }) else {
+                    continue;
+                };
+                let tilt = face.normal.angle(&t.normal).to_degrees();
+                let outward_mm = (face.offset_m - t.offset_m) * 1e3;
+                line += &format!(" [face {f}: {tilt:.2} deg, {outward_mm:+.1} mm; aims");
+                for aim in edge_on_pans(face, &motion, &range) {
+                    if let Some((g, e)) = nearest(aim) {
+                        line += &format!(" {e:+.2}{}", if g == f { "" } else { "?" });
+                        summary.by_count.entry(count).or_default().push(e.abs());
+                    }
+                }
+                line += "]";
+            }
+            println!("{line}");
+        }
+        for view in &views[parameters.initial..] {
+            let pan = Angle::from_radians(view.record.pan_rad);
+            if let Some((_, e)) = nearest(pan).filter(|(_, e)| e.abs() <= SERVED_DEG) {
+                summary.served.push(e);
+            }
+        }
+    }
+    Ok(summary)
+}
+
+fn main() -> Result<()> {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let face_params = match args.first().map(String::as_str) {
+        Some("--mean") => {
+            args.remove(0);
+            FaceParams {
+                profile_quantile: None,
+                ..FaceParams::default()
+            }
+        }
+        _ => FaceParams::default(),
+    };
+    let works: Vec<PathBuf> = args.into_iter().map(PathBuf::from).collect();
+    if works.is_empty() || works.iter().any(|w| w.to_string_lossy().starts_with('-')) {
+        return Err("usage: face_aims [--mean] WORK [WORK...]".into());
+    }
+    let summaries = works
+        .iter()
+        .map(|w| measure(w, &face_params))
+        .collect::<Result<Vec<_>>>()?;
+    for (work, summary) in works.iter().zip(&summaries) {
+        summary.print(work);
+    }
+    Ok(())
+}
