@@ -13,17 +13,20 @@
 //! box (`aibr_scene::catalogue::mirror`: x = -0.06 and 0.055 m, y = -0.04 and 0.04 m, in the
 //! scene's frame, which is the model's: `SceneCamera` turns the calibration, not the scene).
 //!
-//! Prints per turn and count the faces found (the angle of each normal from the true face's,
-//! degrees; its offset's error, millimetres, positive outward) and the aims' signed errors
-//! (degrees); then the mean absolute error of all aims, by count of views and overall, and of
-//! the aims that became views: a captured view within 1.5 degrees of a true edge-on pan, and
-//! its error. With several `WORK` folders (runs of the same turns with different planners) it
-//! prints the summary of each. With `--mean` the faces' planes are those of sessions 25-70
-//! (`FaceParams::profile_quantile` `None`: the mean of the voting normals and the densest
-//! offset) instead of the default refit. `docs/results.md`, "Session 71".
+//! Prints per turn and count the faces found: for each, the true face it faces, the angle
+//! between their normals (degrees), its offset's error (millimetres, positive outward), and its
+//! aims' signed errors against the nearest true edge-on pan (degrees; `?` when that pan is
+//! another face's). Then the mean absolute error of the aims by count of views and overall; the
+//! captured views past the initial ones that lie within 1.5 degrees of a true edge-on pan, with
+//! their mean error; and the median time `planar_faces` took on a model. With several `WORK`
+//! folders (runs of the same turns with different planners) it prints the summary of each.
+//! With `--mean` the faces' planes are those of sessions 25-70 (`FaceParams::profile_quantile`
+//! `None`: the mean of the voting normals and the densest offset) instead of the default
+//! refit. `docs/results.md`, "Session 71".
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use aibr::camera::Angle;
 use aibr::consistency::edge_on_pans;
@@ -66,6 +69,8 @@ struct Summary {
     by_count: BTreeMap<usize, Vec<f64>>,
     /// The captured views within `SERVED_DEG` of a true edge-on pan: signed errors.
     served: Vec<f64>,
+    /// Each model's time in `planar_faces`, milliseconds.
+    finding: Vec<f64>,
 }
 
 impl Summary {
@@ -95,6 +100,14 @@ impl Summary {
             mean(&abs),
             mean(&self.served),
             abs.iter().copied().fold(0.0, f64::max)
+        );
+        let mut finding = self.finding.clone();
+        finding.sort_by(f64::total_cmp);
+        println!(
+            "  planar_faces on {} models: median {:.1} ms, longest {:.1} ms",
+            finding.len(),
+            finding.get(finding.len() / 2).copied().unwrap_or(f64::NAN),
+            finding.last().copied().unwrap_or(f64::NAN)
         );
     }
 }
@@ -163,7 +176,9 @@ fn measure(work: &Path, face_params: &FaceParams) -> Result<Summary> {
                 parameters.grid,
                 &ColoringParams::default(),
             )?;
+            let started = Instant::now();
             let faces = planar_faces(&rec.model, face_params)?;
+            summary.finding.push(started.elapsed().as_secs_f64() * 1e3);
             let mut line = format!("  {count:>2} views:");
             for face in &faces {
                 let Some((f, t)) = truth.iter().enumerate().max_by(|a, b| {
