@@ -3,7 +3,7 @@
 //! `cargo run --release -p aibr --example face_aims -- [--mean] WORK [WORK...]`
 //!
 //! Reads the active capture session of every turn in `WORK`, the folder `aibr eval --rig
-//! sim:mirror --turns ... --strategy active --work WORK` kept (`WORK/turnT/mirror@T-active`). For
+//! sim:mirror --turns ... --strategy active --work WORK` kept (`WORK/turnT/mirror@T-active`, or `mirror-active` at turn 0). For
 //! each count of views from the session's initial views to one short of its last, it rebuilds
 //! the model the capture loop planned the next view from (those views in capture order, voxel
 //! coloring at the session's grid with its masks, as `aibr capture` does), finds the model's
@@ -43,7 +43,7 @@ const TRUE_FACES: [([f64; 2], f64); 4] = [
     ([0.0, 1.0], 0.04),
     ([0.0, -1.0], 0.04),
 ];
-/// A captured view this near a true edge-on pan was aimed at it (degrees).
+/// A captured view this near a true edge-on pan counts as a view at it (degrees).
 const SERVED_DEG: f64 = 1.5;
 
 fn true_faces() -> Vec<PlanarFace> {
@@ -112,32 +112,39 @@ impl Summary {
     }
 }
 
-/// The session folders of `work`, by turn.
+/// The names of the entries of folder `dir`.
+fn entries(dir: &Path) -> Result<Vec<(String, PathBuf)>> {
+    let listing = |e: std::io::Error| format!("{}: cannot list: {e}", dir.display());
+    std::fs::read_dir(dir)
+        .map_err(listing)?
+        .map(|entry| {
+            let entry = entry.map_err(listing)?;
+            Ok((
+                entry.file_name().to_string_lossy().into_owned(),
+                entry.path(),
+            ))
+        })
+        .collect()
+}
+
+/// The active capture sessions of `mirror` in `work` (`turnT/mirror...-active`), by turn.
 fn sessions(work: &Path) -> Result<Vec<(f64, PathBuf)>> {
     let mut out = Vec::new();
-    let entries =
-        std::fs::read_dir(work).map_err(|e| format!("{}: cannot list: {e}", work.display()))?;
-    for entry in entries {
-        let entry = entry.map_err(|e| format!("{}: cannot list: {e}", work.display()))?;
-        let name = entry.file_name().to_string_lossy().into_owned();
+    for (name, path) in entries(work)? {
         let Some(turn) = name.strip_prefix("turn") else {
             continue;
         };
-        let turn_deg: f64 = turn
+        let turn: f64 = turn
             .parse()
             .map_err(|_| format!("{}: {name:?} is not turnDEGREES", work.display()))?;
-        let name = if turn.parse::<f64>().ok() == Some(0.0) {
-            "mirror-active".to_owned()
-        } else {
-            format!("mirror@{turn}-active")
-        };
-        let dir = entry.path().join(name);
-        if dir.is_dir() {
-            out.push((turn_deg, dir));
+        for (inner, dir) in entries(&path)? {
+            if inner.starts_with("mirror") && inner.ends_with("-active") && dir.is_dir() {
+                out.push((turn, dir));
+            }
         }
     }
     if out.is_empty() {
-        return Err(format!("{}: no turnT/mirror@T-active sessions", work.display()).into());
+        return Err(format!("{}: no turnT/mirror...-active sessions", work.display()).into());
     }
     out.sort_by(|a, b| a.0.total_cmp(&b.0));
     Ok(out)
@@ -201,7 +208,7 @@ fn measure(work: &Path, face_params: &FaceParams) -> Result<Summary> {
             }
             println!("{line}");
         }
-        for view in &views[parameters.initial..] {
+        for view in views.iter().skip(parameters.initial) {
             let pan = Angle::from_radians(view.record.pan_rad);
             if let Some((_, e)) = nearest(pan).filter(|(_, e)| e.abs() <= SERVED_DEG) {
                 summary.served.push(e);
