@@ -10,8 +10,8 @@
 //! flat faces with `aibr_voxel::planar_faces` and their edge-on pans with
 //! `aibr_consistency::edge_on_pans`: the loop's aims. Each aim is set against the nearest true
 //! edge-on pan, the pan from which the camera centre lies in the plane of a face of `mirror`'s
-//! box (`aibr_scene::catalogue::mirror`: x = -0.06 and 0.055 m, y = -0.04 and 0.04 m, in the
-//! scene's frame, which is the model's: `SceneCamera` turns the calibration, not the scene).
+//! box (`aibr_scene::catalogue::mirror`'s cuboid, `Shape::side_planes`, in the scene's frame,
+//! which is the model's: `SceneCamera` turns the calibration, not the scene).
 //!
 //! Prints per turn and count the faces found: for each, the true face it faces, the angle
 //! between their normals (degrees), its offset's error (millimetres, positive outward), and its
@@ -30,31 +30,27 @@ use std::time::Instant;
 
 use aibr::camera::Angle;
 use aibr::consistency::edge_on_pans;
+use aibr::scene::catalogue;
 use aibr::voxel::{ColoringParams, FaceParams, PlanarFace, planar_faces};
 use aibr::{Session, reconstruct_loaded};
-use nalgebra::Vector3;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
-/// `mirror`'s box: each face's outward normal and offset (metres) in the scene's frame.
-const TRUE_FACES: [([f64; 2], f64); 4] = [
-    ([1.0, 0.0], 0.055),
-    ([-1.0, 0.0], 0.06),
-    ([0.0, 1.0], 0.04),
-    ([0.0, -1.0], 0.04),
-];
 /// A captured view this near a true edge-on pan counts as a view at it (degrees).
 const SERVED_DEG: f64 = 1.5;
 
-fn true_faces() -> Vec<PlanarFace> {
-    TRUE_FACES
+/// The sides of `mirror`'s box, in the scene's frame.
+fn true_faces() -> Result<Vec<PlanarFace>> {
+    Ok(catalogue::mirror()?
+        .objects
         .iter()
-        .map(|&([x, y], offset_m)| PlanarFace {
-            normal: Vector3::new(x, y, 0.0),
+        .flat_map(|o| o.shape.side_planes())
+        .map(|(normal, offset_m)| PlanarFace {
+            normal,
             offset_m,
             voxels: 0,
         })
-        .collect()
+        .collect())
 }
 
 /// Signed degrees from `b` to `a`, round the circle.
@@ -152,7 +148,7 @@ fn sessions(work: &Path) -> Result<Vec<(f64, PathBuf)>> {
 
 fn measure(work: &Path, face_params: &FaceParams) -> Result<Summary> {
     let mut summary = Summary::default();
-    let truth = true_faces();
+    let truth = true_faces()?;
     for (turn, dir) in sessions(work)? {
         let session = Session::open(&dir)?;
         let views = session.load_views()?;

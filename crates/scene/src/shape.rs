@@ -194,6 +194,21 @@ impl Shape {
         }
     }
 
+    /// The planes of its flat vertical sides, each as an outward unit normal `n` and an offset
+    /// `d` (the points `x` with `n . x = d`): a cuboid's four; none for the other shapes (an
+    /// ellipsoid's and a cylinder's sides are curved, a quad is seen from both sides).
+    pub fn side_planes(&self) -> Vec<(Vector3<f64>, f64)> {
+        match self {
+            Shape::Cuboid { min, max } => vec![
+                (Vector3::x(), max.x),
+                (-Vector3::x(), -min.x),
+                (Vector3::y(), max.y),
+                (-Vector3::y(), -min.y),
+            ],
+            Shape::Ellipsoid { .. } | Shape::Cylinder { .. } | Shape::Quad { .. } => Vec::new(),
+        }
+    }
+
     /// The axis-aligned bounds.
     pub fn bounds(&self) -> Aabb {
         match self {
@@ -416,6 +431,38 @@ mod tests {
             None
         );
         assert!((q.area() - 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_cuboid_has_four_side_planes_through_its_corners_and_the_rest_none() {
+        for shape in shapes() {
+            let planes = shape.side_planes();
+            let Shape::Cuboid { min, max } = shape else {
+                assert!(planes.is_empty(), "{shape:?}: {planes:?}");
+                continue;
+            };
+            assert_eq!(planes.len(), 4);
+            let corners: Vec<Point3<f64>> = (0..8)
+                .map(|i| {
+                    let pick = |bit, lo: f64, hi: f64| if i & bit == 0 { lo } else { hi };
+                    Point3::new(
+                        pick(1, min.x, max.x),
+                        pick(2, min.y, max.y),
+                        pick(4, min.z, max.z),
+                    )
+                })
+                .collect();
+            let centre = nalgebra::center(&min, &max);
+            for (n, d) in planes {
+                assert!((n.norm() - 1.0).abs() < 1e-12 && n.z == 0.0, "{n:?}");
+                let on = corners
+                    .iter()
+                    .filter(|c| (n.dot(&c.coords) - d).abs() < 1e-12);
+                assert_eq!(on.count(), 4, "{n:?} {d}");
+                assert!(corners.iter().all(|c| n.dot(&c.coords) <= d + 1e-12));
+                assert!(n.dot(&centre.coords) < d, "{n:?} {d}: outward");
+            }
+        }
     }
 
     #[test]

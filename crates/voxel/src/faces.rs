@@ -40,6 +40,7 @@
 
 use std::collections::BTreeMap;
 
+use aibr_camera::Angle;
 use nalgebra::{Matrix3, Point3, SymmetricEigen, Vector3};
 
 use crate::error::{Error, Result};
@@ -300,12 +301,9 @@ fn face_at_peak(
     params: &FaceParams,
 ) -> Option<PlanarFace> {
     let centre = (peak as f64 + 0.5).to_radians();
-    let near = |a: f64| {
-        (a - centre + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
-    };
     let members: Vec<&(Point3<f64>, f64)> = votes
         .iter()
-        .filter(|(_, a)| near(*a).abs() <= half)
+        .filter(|(_, a)| turn_between(*a, centre) <= half)
         .collect();
     let (s, c) = members
         .iter()
@@ -369,6 +367,14 @@ fn face_at_peak(
     })
 }
 
+/// How far apart directions `a` and `b` are (radians, 0 to pi), round the circle.
+fn turn_between(a: f64, b: f64) -> f64 {
+    Angle::from_radians(a)
+        .wrapped_difference(Angle::from_radians(b))
+        .radians()
+        .abs()
+}
+
 /// Votes within this angle of a face's direction make its outer profile (degrees): wider
 /// than the smoothing, so that a wedge's steeper facet is in it.
 const PROFILE_WINDOW_DEG: f64 = 15.0;
@@ -396,7 +402,6 @@ fn profile_line(
     size: f64,
     q: f64,
 ) -> Option<(Vector3<f64>, f64)> {
-    use std::f64::consts::{PI, TAU};
     let normal = Vector3::new(direction.cos(), direction.sin(), 0.0);
     let along = Vector3::new(-normal.y, normal.x, 0.0);
     let window = PROFILE_WINDOW_DEG.to_radians();
@@ -404,9 +409,7 @@ fn profile_line(
     let mut cells: BTreeMap<(i64, i64), (f64, f64)> = BTreeMap::new();
     for (p, a) in votes {
         let t = normal.dot(&p.coords);
-        if ((a - direction + PI).rem_euclid(TAU) - PI).abs() > window
-            || (t - plane).abs() > PROFILE_BAND_VOXELS * size
-        {
+        if turn_between(*a, direction) > window || (t - plane).abs() > PROFILE_BAND_VOXELS * size {
             continue;
         }
         let u = along.dot(&p.coords);

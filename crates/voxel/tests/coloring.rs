@@ -701,13 +701,13 @@ fn the_block_faces_of_a_colored_model_are_found() -> TestResult {
 #[test]
 fn the_faces_of_a_fat_model_are_refitted_onto_the_true_planes() -> TestResult {
     let scene = catalogue::mirror()?;
-    // The box's faces (`catalogue::mirror`): outward normal and offset.
-    let truth = [
-        ([1.0, 0.0], 0.055),
-        ([-1.0, 0.0], 0.06),
-        ([0.0, 1.0], 0.04),
-        ([0.0, -1.0], 0.04),
-    ];
+    // The box's sides: outward normal and offset.
+    let truth: Vec<_> = scene
+        .objects
+        .iter()
+        .flat_map(|o| o.shape.side_planes())
+        .collect();
+    assert_eq!(truth.len(), 4, "{truth:?}");
     let grid = VoxelGrid::with_resolution(scene.bounds(), 96)?;
     let mut worst_mean_deg = 0f64;
     for turn in [12.5, 15.0] {
@@ -727,9 +727,8 @@ fn the_faces_of_a_fat_model_are_refitted_onto_the_true_planes() -> TestResult {
                 .filter_map(|f| {
                     truth
                         .iter()
-                        .map(|&([x, y], d)| (nalgebra::Vector3::new(x, y, 0.0), d))
                         .find(|(n, _)| f.normal.dot(n) > 10f64.to_radians().cos())
-                        .map(|(n, d)| (f.normal.angle(&n).to_degrees(), f.offset_m - d))
+                        .map(|(n, d)| (f.normal.angle(n).to_degrees(), f.offset_m - d))
                 })
                 .collect())
         };
