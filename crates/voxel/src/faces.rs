@@ -309,7 +309,7 @@ fn face_at_peak(
         .iter()
         .fold((0.0, 0.0), |(s, c), (_, a)| (s + a.sin(), c + a.cos()));
     let direction = s.atan2(c);
-    let mut normal = Vector3::new(direction.cos(), direction.sin(), 0.0);
+    let mut normal = horizontal(direction);
     let mut offsets: Vec<f64> = members.iter().map(|(p, _)| normal.dot(&p.coords)).collect();
     let lo = offsets.iter().copied().fold(f64::INFINITY, f64::min);
     let bins = ((offsets.iter().copied().fold(f64::NEG_INFINITY, f64::max) - lo) / size).floor()
@@ -367,6 +367,11 @@ fn face_at_peak(
     })
 }
 
+/// The horizontal unit vector in direction `direction` (radians from +X towards +Y).
+fn horizontal(direction: f64) -> Vector3<f64> {
+    Vector3::new(direction.cos(), direction.sin(), 0.0)
+}
+
 /// How far apart directions `a` and `b` are (radians, 0 to pi), round the circle.
 fn turn_between(a: f64, b: f64) -> f64 {
     Angle::from_radians(a)
@@ -402,7 +407,7 @@ fn profile_line(
     size: f64,
     q: f64,
 ) -> Option<(Vector3<f64>, f64)> {
-    let normal = Vector3::new(direction.cos(), direction.sin(), 0.0);
+    let normal = horizontal(direction);
     let along = Vector3::new(-normal.y, normal.x, 0.0);
     let window = PROFILE_WINDOW_DEG.to_radians();
     // (column, layer) -> the outermost vote's (offset, position along the face).
@@ -450,7 +455,7 @@ fn profile_line(
     }
     let (_, tilt, at) = best?;
     // The line t = at + tan(tilt) (u - mid) has the normal turned by -tilt.
-    let turned = Vector3::new((direction - tilt).cos(), (direction - tilt).sin(), 0.0);
+    let turned = horizontal(direction - tilt);
     Some((turned, turned.dot(&(normal * at + along * mid))))
 }
 
@@ -495,7 +500,7 @@ mod tests {
             (270.0, half[1]),
         ] {
             let want = (angle + k).to_radians();
-            let n = Vector3::new(want.cos(), want.sin(), 0.0);
+            let n = horizontal(want);
             let f = faces
                 .iter()
                 .find(|f| f.normal.dot(&n) > 0.99)
