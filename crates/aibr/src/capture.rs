@@ -103,23 +103,30 @@ impl Default for CaptureParams {
 impl CaptureParams {
     /// Checks the counts.
     pub fn validate(&self) -> Result<()> {
-        let bad = |name, reason: &str| {
-            Err(Error::InvalidParameter {
-                name,
-                reason: reason.into(),
-            })
-        };
+        let bad = |name, reason: String| Err(Error::InvalidParameter { name, reason });
         if self.initial < 3 {
-            return bad("initial", "at least 3 views are needed to start");
+            return bad(
+                "initial",
+                format!("{} views: at least 3 are needed to start", self.initial),
+            );
         }
         if self.max < self.initial {
-            return bad("max", "the budget must not be below the initial views");
+            return bad(
+                "max",
+                format!(
+                    "the budget of {} views is below the {} initial views",
+                    self.max, self.initial
+                ),
+            );
         }
         if self.refine_every == 0 {
-            return bad("refine_every", "must be at least 1");
+            return bad("refine_every", "0: must be at least 1".into());
         }
         if !(8..=512).contains(&self.grid) {
-            return bad("grid", "must be between 8 and 512 voxels");
+            return bad(
+                "grid",
+                format!("{} voxels: must be between 8 and 512", self.grid),
+            );
         }
         self.plan().validate()?;
         Ok(())
@@ -688,4 +695,42 @@ fn face_aims(
         .map(|f| edge_on_pans(f, motion, range))
         .filter(|pans| !pans.is_empty())
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The message a refusal of `params` gives, and the parameter it names.
+    fn refusal(params: CaptureParams) -> (&'static str, String) {
+        match params.validate() {
+            Err(e @ Error::InvalidParameter { name, .. }) => (name, e.to_string()),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn refusals_name_the_values() {
+        let counts = |initial, max| CaptureParams {
+            initial,
+            max,
+            ..CaptureParams::default()
+        };
+        let (name, message) = refusal(counts(50, 48));
+        assert_eq!(name, "max");
+        assert!(
+            message.contains("48") && message.contains("50"),
+            "{message}"
+        );
+        let (name, message) = refusal(counts(2, 48));
+        assert_eq!(name, "initial");
+        assert!(message.contains('2'), "{message}");
+        let (name, message) = refusal(CaptureParams {
+            grid: 600,
+            ..CaptureParams::default()
+        });
+        assert_eq!(name, "grid");
+        assert!(message.contains("600"), "{message}");
+        assert!(CaptureParams::default().validate().is_ok());
+    }
 }
