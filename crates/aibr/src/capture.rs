@@ -107,25 +107,25 @@ impl CaptureParams {
         if self.initial < 3 {
             return bad(
                 "initial",
-                format!("{} views: at least 3 are needed to start", self.initial),
+                format!("at least 3 views are needed to start, not {}", self.initial),
             );
         }
         if self.max < self.initial {
             return bad(
                 "max",
                 format!(
-                    "the budget of {} views is below the {} initial views",
+                    "the budget, {} views, is below the initial views, {}",
                     self.max, self.initial
                 ),
             );
         }
         if self.refine_every == 0 {
-            return bad("refine_every", "0: must be at least 1".into());
+            return bad("refine_every", "must be at least 1, not 0".into());
         }
         if !(8..=512).contains(&self.grid) {
             return bad(
                 "grid",
-                format!("{} voxels: must be between 8 and 512", self.grid),
+                format!("must be between 8 and 512 voxels, not {}", self.grid),
             );
         }
         self.plan().validate()?;
@@ -718,11 +718,11 @@ mod tests {
         };
         assert_eq!(
             refusal(counts(50, 48)),
-            "invalid max: the budget of 48 views is below the 50 initial views"
+            "invalid max: the budget, 48 views, is below the initial views, 50"
         );
         assert_eq!(
             refusal(counts(2, 48)),
-            "invalid initial: 2 views: at least 3 are needed to start"
+            "invalid initial: at least 3 views are needed to start, not 2"
         );
         let grid = CaptureParams {
             grid: 600,
@@ -730,7 +730,7 @@ mod tests {
         };
         assert_eq!(
             refusal(grid),
-            "invalid grid: 600 voxels: must be between 8 and 512"
+            "invalid grid: must be between 8 and 512 voxels, not 600"
         );
         assert!(CaptureParams::default().validate().is_ok());
     }

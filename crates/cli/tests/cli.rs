@@ -1035,7 +1035,10 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         .arg(&work)
         .output()?;
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("invalid initial: at least 3 views"), "{err}");
+    assert!(
+        err.contains("invalid initial: at least 3 views are needed to start, not 1"),
+        "{err}"
+    );
     // A missing replay folder: its path and the reason, each said once.
     let missing = work.join("no-such-ring");
     let out = aibr()
