@@ -671,6 +671,10 @@ fn zero_bytes(x: u64) -> u64 {
     ((high >> 7).wrapping_mul(0x0102_0408_1020_4080)) >> 56
 }
 
+/// The widest footprint, in pixels, that [`ViewBits::gather`] reads without a branch per
+/// pixel (`ViewBits::gather_narrow`): at 128^3 nearly every footprint is 3 or 4 wide.
+const NARROW: usize = 4;
+
 /// The words of a row that hold a footprint's pixels `u0..=u1`, and the masks of those
 /// pixels in the first and the last (the words between are whole).
 #[derive(Debug, Clone, Copy)]
@@ -829,6 +833,9 @@ impl ViewBits {
             }
         };
         if let Some(m) = span.single() {
+            if let Some(found) = self.gather_narrow(px, fp, span.w0, m) {
+                return found;
+            }
             for v in fp.v0..=fp.v1 {
                 let w = self.resolved.word(v, span.w0);
                 add_word(v as usize * px.width + 64 * span.w0, !w & m);
@@ -842,6 +849,43 @@ impl ViewBits {
             }
         }
         (sum, n)
+    }
+
+    /// [`ViewBits::gather`] for a footprint at most [`NARROW`] pixels wide whose rows lie in
+    /// word `w0` of their rows (`m`, the footprint's mask there), as nearly all do at 128^3:
+    /// each row's [`NARROW`] pixels from `u0` are loaded at once and weighed by their open
+    /// bits (0 or 1), without a branch on the bits, so that the loads of a footprint are issued
+    /// together where a mispredicted branch of the bit loop would throw the later ones away.
+    /// The same integer sums as the bit loop. `None` when the footprint is wider, or a row's
+    /// pixels would run past the image's last byte.
+    #[inline]
+    fn gather_narrow(
+        &self,
+        px: &Pixels<'_>,
+        fp: &Footprint,
+        w0: usize,
+        m: u64,
+    ) -> Option<([u32; 3], u32)> {
+        if (fp.u1 - fp.u0) as usize >= NARROW {
+            return None;
+        }
+        let shift = fp.u0 % 64;
+        let mut sum = [0u32; 3];
+        let mut n = 0u32;
+        for v in fp.v0..=fp.v1 {
+            // Bit k: pixel u0 + k is open (none past u1: `m` holds only the footprint's bits).
+            let open = (!self.resolved.word(v, w0) & m) >> shift;
+            let start = 3 * (v as usize * px.width + fp.u0 as usize);
+            let row: &[u8; 3 * NARROW] = px.rgb.get(start..start + 3 * NARROW)?.try_into().ok()?;
+            for k in 0..NARROW {
+                let b = ((open >> k) & 1) as u32;
+                sum[0] += b * u32::from(row[3 * k]);
+                sum[1] += b * u32::from(row[3 * k + 1]);
+                sum[2] += b * u32::from(row[3 * k + 2]);
+                n += b;
+            }
+        }
+        Some((sum, n))
     }
 
     /// Claims the pixels of `fp`.
@@ -1440,7 +1484,9 @@ mod tests {
 
         /// The fast kernel's bits answer every question as the per-pixel claims and mask
         /// do, for images of one word a row or several, footprints within a word or across
-        /// words, with a mask or without.
+        /// words, with a mask or without; and footprints at most 4 pixels wide anywhere, up to
+        /// the image's last pixel, which `ViewBits::gather` reads without a branch per pixel
+        /// when their rows' pixels lie within the image's bytes.
         #[test]
         fn view_bits_agree_with_pixels_and_claims(
             width in 1u32..200,
@@ -1449,6 +1495,8 @@ mod tests {
             with_mask in proptest::bool::ANY,
             claims in proptest::collection::vec(proptest::array::uniform4(0.0f64..1.0), 0..12),
             queries in proptest::collection::vec(proptest::array::uniform4(0.0f64..1.0), 1..24),
+            narrow in proptest::collection::vec(
+                (0.0f64..1.0, 0.0f64..1.0, 0u32..4, 0u32..5), 1..24),
         ) {
             let mut state = seed | 1;
             let mut next = move || {
@@ -1477,8 +1525,11 @@ mod tests {
                 bits.claim(&fp);
                 claim(&mut claimed, width as usize, &fp);
             }
-            for f in queries {
-                let fp = footprint_in(width, height, f);
+            let narrow = narrow.into_iter().map(|(x, y, w, h)| {
+                let fp = footprint_in(width, height, [x, x, y, y]);
+                Footprint { u1: (fp.u0 + w).min(width - 1), v1: (fp.v0 + h).min(height - 1), ..fp }
+            });
+            for fp in queries.into_iter().map(|f| footprint_in(width, height, f)).chain(narrow) {
                 let (sum, n) = px.gather(&fp, &claimed);
                 proptest::prop_assert_eq!(bits.gather(&px, &fp), (sum, n));
                 proptest::prop_assert_eq!(bits.all_resolved(&fp), n == 0);
