@@ -161,7 +161,7 @@ pub fn space_carving(
                         .map(|w| {
                             let mut out = Vec::new();
                             let mut samples = Vec::with_capacity(active.len());
-                            let mut judge = Judge::default();
+                            let mut judge = Judge::new(&params.criterion);
                             for u in 0..n1 {
                                 let idx = index(u, w);
                                 if !occupied[[idx[2], idx[1], idx[0]]] {
@@ -179,8 +179,7 @@ pub fn space_carving(
                                     }
                                 }
                                 if samples.len() >= params.min_views {
-                                    let verdict =
-                                        judge.decide(&samples, &centres, &x, &params.criterion);
+                                    let verdict = judge.decide(&samples, &centres, &x);
                                     out.push((u, verdict));
                                 }
                             }

@@ -12,8 +12,8 @@ use crate::error::{Error, Result};
 use crate::grid::{VoxelGrid, VoxelModel};
 use crate::hull::{Hull, any_mask, behind};
 use crate::kernel::{
-    Criterion, Footprint, Judge, Pixels, Projector, Sample, Silhouette, View, ViewBits, claim,
-    decide, prepare_views,
+    Consistency, Criterion, Footprint, Judge, Pixels, Projector, Sample, Silhouette, View,
+    ViewBits, claim, decide, prepare_views,
 };
 
 /// Parameters of [`voxel_coloring`] and [`voxel_coloring_reference`].
@@ -194,6 +194,7 @@ pub fn voxel_coloring(
         .behind_hull
         .filter(|_| any_mask(&pixels))
         .map(|cosine| (Hull::culled(grid, &projectors, &bits, BLOCK), cosine));
+    let criterion = Consistency::from(&params.criterion);
     let mut model = VoxelModel::empty(*grid);
     let mut stats = KernelStats {
         voxels: grid.len(),
@@ -260,6 +261,7 @@ pub fn voxel_coloring(
                         &bits,
                         hull.as_ref(),
                         params,
+                        &criterion,
                         scratch,
                         &mut azimuths,
                     );
@@ -776,6 +778,7 @@ fn decide_block(
     bits: &[ViewBits],
     hull: Option<&(Hull, f64)>,
     params: &ColoringParams,
+    criterion: &Consistency,
     scratch: &mut BlockScratch,
     azimuths: &mut Vec<f64>,
 ) -> BlockResult {
@@ -939,7 +942,7 @@ fn decide_block(
             samples,
             centres,
             &voxel,
-            &params.criterion,
+            criterion,
             &mut scratch.decide,
             &mut azimuths[x * n..(x + 1) * n],
         ) {
@@ -981,7 +984,7 @@ pub fn voxel_coloring_reference(
         voxels: grid.len(),
         ..KernelStats::default()
     };
-    let mut judge = Judge::default();
+    let mut judge = Judge::new(&params.criterion);
     let hull = params
         .behind_hull
         .filter(|_| any_mask(&pixels))
@@ -1032,7 +1035,7 @@ pub fn voxel_coloring_reference(
                     continue;
                 }
                 stats.tested += 1;
-                if let Some(c) = judge.decide(&samples, &centres, &x, &params.criterion) {
+                if let Some(c) = judge.decide(&samples, &centres, &x) {
                     layer.push(([i, j, k], c));
                     if params.column_test.is_some() {
                         kept_samples.push(&samples);

@@ -70,6 +70,46 @@ impl Default for Criterion {
     }
 }
 
+/// A [`Criterion`] ready to judge voxels: the angular window's cosine is worked out once per
+/// run, not once a voxel (the cosine was some 1% of the fast kernel's time at 128^3,
+/// `docs/voxel.md`, "Session 74").
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Consistency {
+    /// [`Criterion::Classic`].
+    Classic { threshold: f32 },
+    /// [`Criterion::Angular`].
+    Angular { threshold: f32, window: Window },
+}
+
+impl From<&Criterion> for Consistency {
+    fn from(criterion: &Criterion) -> Self {
+        match *criterion {
+            Criterion::Classic { threshold } => Consistency::Classic { threshold },
+            Criterion::Angular { threshold, window } => Consistency::Angular {
+                threshold,
+                window: Window::of(window),
+            },
+        }
+    }
+}
+
+/// The angular criterion's window: its half-width about the pan axis and the cosine of it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Window {
+    radians: f64,
+    cos: f64,
+}
+
+impl Window {
+    fn of(window: Angle) -> Self {
+        let radians = window.radians();
+        Window {
+            radians,
+            cos: radians.cos(),
+        }
+    }
+}
+
 /// Checks sizes and distortion of the views.
 pub(crate) fn validate_views(views: &[View<'_>], needed: usize) -> Result<()> {
     if views.len() < needed {
@@ -946,7 +986,7 @@ pub(crate) fn decide(
     samples: &[Sample],
     centres: &[Point3<f64>],
     x: &Point3<f64>,
-    criterion: &Criterion,
+    criterion: &Consistency,
     scratch: &mut Vec<Emission>,
     azimuths: &mut [f64],
 ) -> Option<[u8; 3]> {
@@ -964,7 +1004,7 @@ pub(crate) fn decide(
         *m /= n as f32;
     }
     let ok = match *criterion {
-        Criterion::Classic { threshold } => {
+        Consistency::Classic { threshold } => {
             let mut var = 0f32;
             for s in samples {
                 for (c, m) in s.colour.iter().zip(&mean) {
@@ -974,29 +1014,38 @@ pub(crate) fn decide(
             }
             (var / (3 * n) as f32).sqrt() <= threshold
         }
-        Criterion::Angular { threshold, window } => {
+        Consistency::Angular { threshold, window } => {
             angular_difference(samples, centres, x, window, scratch, azimuths) <= threshold
         }
     };
     ok.then(|| mean.map(|m| m.round().clamp(0.0, 255.0) as u8))
 }
 
-/// [`decide`] for voxels taken one at a time (the reference and space carving), with no
-/// column's azimuths to reuse, and its buffers.
-#[derive(Debug, Default)]
+/// [`decide`] by one criterion for voxels taken one at a time (the reference and space
+/// carving), with no column's azimuths to reuse, and its buffers.
+#[derive(Debug)]
 pub(crate) struct Judge {
+    criterion: Consistency,
     emissions: Vec<Emission>,
     azimuths: Vec<f64>,
 }
 
 impl Judge {
+    /// A judge by `criterion`.
+    pub(crate) fn new(criterion: &Criterion) -> Self {
+        Judge {
+            criterion: criterion.into(),
+            emissions: Vec::new(),
+            azimuths: Vec::new(),
+        }
+    }
+
     /// [`decide`] of a voxel at `x` with these samples.
     pub(crate) fn decide(
         &mut self,
         samples: &[Sample],
         centres: &[Point3<f64>],
         x: &Point3<f64>,
-        criterion: &Criterion,
     ) -> Option<[u8; 3]> {
         self.azimuths.clear();
         self.azimuths.resize(centres.len(), f64::NAN);
@@ -1004,7 +1053,7 @@ impl Judge {
             samples,
             centres,
             x,
-            criterion,
+            &self.criterion,
             &mut self.emissions,
             &mut self.azimuths,
         )
@@ -1046,7 +1095,7 @@ fn angular_difference(
     samples: &[Sample],
     centres: &[Point3<f64>],
     x: &Point3<f64>,
-    window: Angle,
+    window: Window,
     scratch: &mut Vec<Emission>,
     azimuths: &mut [f64],
 ) -> f32 {
@@ -1076,8 +1125,7 @@ fn angular_difference(
             .total_cmp(&b.azimuth)
             .then(a.sample.cmp(&b.sample))
     });
-    let w = window.radians();
-    let cos_w = w.cos();
+    let (w, cos_w) = (window.radians, window.cos);
     let gap = |e: &[Emission], a: usize, b: usize| {
         let g = e[b].azimuth - e[a].azimuth;
         if g < 0.0 {
@@ -1608,7 +1656,7 @@ mod tests {
         let uniform: Vec<f64> = (0..=18).map(|i| 10.0 * f64::from(i)).collect();
         let mut crowded = uniform.clone();
         crowded.extend((0..20).map(|i| 40.5 + f64::from(i)));
-        let window = Angle::from_degrees(35.0);
+        let window = Window::of(Angle::from_degrees(35.0));
         let x = Point3::origin();
         let mut scratch = Vec::new();
         let (c, s) = ring(&uniform);
@@ -1642,14 +1690,13 @@ mod tests {
             })
             .collect();
         let x = Point3::origin();
-        let mut judge = Judge::default();
-        let angular = Criterion::Angular {
+        let mut angular = Judge::new(&Criterion::Angular {
             threshold: 15.0,
             window: Angle::from_degrees(50.0),
-        };
-        assert!(judge.decide(&samples, &centres, &x, &angular).is_some());
-        let classic = Criterion::Classic { threshold: 15.0 };
-        assert!(judge.decide(&samples, &centres, &x, &classic).is_none());
+        });
+        assert!(angular.decide(&samples, &centres, &x).is_some());
+        let mut classic = Judge::new(&Criterion::Classic { threshold: 15.0 });
+        assert!(classic.decide(&samples, &centres, &x).is_none());
         // Neighbours that disagree fail the angular test too.
         let noisy: Vec<Sample> = (0..8)
             .map(|i| Sample {
@@ -1657,6 +1704,6 @@ mod tests {
                 colour: [if i % 2 == 0 { 30.0 } else { 200.0 }, 80.0, 60.0],
             })
             .collect();
-        assert!(judge.decide(&noisy, &centres, &x, &angular).is_none());
+        assert!(angular.decide(&noisy, &centres, &x).is_none());
     }
 }
