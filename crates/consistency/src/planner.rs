@@ -67,8 +67,11 @@ pub struct PlanParams {
     /// within `face_served_deg` of any of its edge-on pans, the best-ranked arc that holds one
     /// of those pans is split there, whatever `aim_reach`; only then are arcs split by rank
     /// alone ([`plan_next_aimed`]). On `mirror` it puts a view in every face's plane by 24
-    /// views and renders better there, at a small cost on `lambertian` and a large one on
-    /// `head`, whose many faces take most of the views (`docs/results.md`, "Session 38").
+    /// views and renders better there, at a cost on `lambertian` and a large one on `head`,
+    /// whose many faces take most of the views (`docs/results.md`, "Session 38"). Since each
+    /// face's plane is refitted to its outer profile (session 71), the cost on `lambertian`
+    /// is 0.36 dB against uniform capture at 24 views from 12 initial ones, beyond issue 7's
+    /// 0.2 dB bound, and 0.19 at 36 (`docs/results.md`, "Session 74").
     pub faces_first: bool,
     /// Serving faces first, a face counts as served when a view lies within this many degrees
     /// of one of its edge-on pans (default [`AIM_DONE_DEG`], 1; more than 0, at most
