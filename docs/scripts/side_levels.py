@@ -17,26 +17,21 @@ capture's 24 views stand.
 """
 import sys
 
-from compare_turns import load_turns, mean, object_arc, on_arc
+from compare_turns import arc_psnr, load_turns, mean, object_arc, on_arc
 
 
 def levels(checkpoint, turn, lo, hi):
     """(issue's measure, on the arc, off it, novel views on, off, captured views on, off)."""
-    novel = [
-        (v["masked_psnr_db"], on_arc(v["pan_deg"], turn, lo, hi))
-        for v in checkpoint["novel_views"]
-    ]
-    on = [psnr for psnr, there in novel if there]
-    off = [psnr for psnr, there in novel if not there]
-    taken = sum(1 for p in checkpoint["pans_deg"] if on_arc(p, turn, lo, hi))
+    novel_on = sum(1 for v in checkpoint["novel_views"] if on_arc(v["pan_deg"], turn, lo, hi))
+    taken_on = sum(1 for p in checkpoint["pans_deg"] if on_arc(p, turn, lo, hi))
     return (
         checkpoint["mean_masked_psnr_db"],
-        mean(on),
-        mean(off),
-        len(on),
-        len(off),
-        taken,
-        len(checkpoint["pans_deg"]) - taken,
+        arc_psnr(checkpoint, turn, lo, hi, True),
+        arc_psnr(checkpoint, turn, lo, hi, False),
+        novel_on,
+        len(checkpoint["novel_views"]) - novel_on,
+        taken_on,
+        len(checkpoint["pans_deg"]) - taken_on,
     )
 
 

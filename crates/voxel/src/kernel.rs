@@ -93,7 +93,8 @@ impl From<&Criterion> for Consistency {
     }
 }
 
-/// The angular criterion's window: its half-width about the pan axis and the cosine of it.
+/// The angular criterion's window: the angle within which two views are neighbours, and its
+/// cosine.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Window {
     radians: f64,
