@@ -6,7 +6,9 @@ use rayon::prelude::*;
 use crate::coloring::{KernelStats, Reconstruction};
 use crate::error::Result;
 use crate::grid::{VoxelGrid, VoxelModel};
-use crate::kernel::{Criterion, Judge, Pixels, Projector, Sample, View, claim, prepare_views};
+use crate::kernel::{
+    Consistency, Criterion, Judge, Pixels, Projector, Sample, View, claim, prepare_views,
+};
 
 /// Parameters of [`space_carving`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -108,6 +110,7 @@ pub fn space_carving(
 ) -> Result<Reconstruction> {
     let (projectors, pixels) = prepare_views(grid, views, params.min_views.max(1))?;
     let centres: Vec<_> = projectors.iter().map(|p| p.centre).collect();
+    let criterion = Consistency::from(&params.criterion);
     let mut model = VoxelModel::full(*grid);
     let mut stats = KernelStats {
         voxels: grid.len(),
@@ -161,7 +164,7 @@ pub fn space_carving(
                         .map(|w| {
                             let mut out = Vec::new();
                             let mut samples = Vec::with_capacity(active.len());
-                            let mut judge = Judge::new(&params.criterion);
+                            let mut judge = Judge::new(criterion);
                             for u in 0..n1 {
                                 let idx = index(u, w);
                                 if !occupied[[idx[2], idx[1], idx[0]]] {

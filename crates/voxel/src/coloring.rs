@@ -984,7 +984,7 @@ pub fn voxel_coloring_reference(
         voxels: grid.len(),
         ..KernelStats::default()
     };
-    let mut judge = Judge::new(&params.criterion);
+    let mut judge = Judge::new(Consistency::from(&params.criterion));
     let hull = params
         .behind_hull
         .filter(|_| any_mask(&pixels))

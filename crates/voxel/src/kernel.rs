@@ -1033,9 +1033,9 @@ pub(crate) struct Judge {
 
 impl Judge {
     /// A judge by `criterion`.
-    pub(crate) fn new(criterion: &Criterion) -> Self {
+    pub(crate) fn new(criterion: Consistency) -> Self {
         Judge {
-            criterion: criterion.into(),
+            criterion,
             emissions: Vec::new(),
             azimuths: Vec::new(),
         }
@@ -1691,12 +1691,12 @@ mod tests {
             })
             .collect();
         let x = Point3::origin();
-        let mut angular = Judge::new(&Criterion::Angular {
+        let mut angular = Judge::new(Consistency::from(&Criterion::Angular {
             threshold: 15.0,
             window: Angle::from_degrees(50.0),
-        });
+        }));
         assert!(angular.decide(&samples, &centres, &x).is_some());
-        let mut classic = Judge::new(&Criterion::Classic { threshold: 15.0 });
+        let mut classic = Judge::new(Consistency::from(&Criterion::Classic { threshold: 15.0 }));
         assert!(classic.decide(&samples, &centres, &x).is_none());
         // Neighbours that disagree fail the angular test too.
         let noisy: Vec<Sample> = (0..8)
