@@ -54,6 +54,53 @@ pub struct PairScore {
     pub error_b: GrayImage,
 }
 
+impl PairScore {
+    /// The score as a share of the foreground pixels the pair looked at, compared or
+    /// unexplained: 0 where all were consistent, 1 where none was. `None` when it looked at
+    /// none.
+    pub fn share(&self) -> Option<f64> {
+        let pixels = self.compared_pixels + self.unexplained_pixels;
+        (pixels > 0).then(|| self.score / pixels as f64)
+    }
+}
+
+/// How far the worst arc stands out from the others: the largest [`PairScore::share`] over the
+/// median one (the upper median of an even count). `None` with no arc that looked at pixels,
+/// or when the median arc is wholly consistent.
+///
+/// Among evenly spaced views a view-dependent surface stands out: a mirror reflects what
+/// lies around it, which the model cannot explain, so the arcs that see it score several
+/// times the rest, while a Lambertian object's arcs score alike
+/// ([`VIEW_DEPENDENT_CONTRAST`]). Among unevenly spaced views the width of each arc weighs in
+/// as much as the surface, so this reads the surface only from evenly spaced ones.
+///
+/// ```
+/// use aibr_consistency::{PairScore, arc_contrast};
+/// use image::GrayImage;
+///
+/// let arc = |score| PairScore {
+///     a: 0, b: 1, score, unexplained_pixels: 0, compared_pixels: 1000,
+///     error_a: GrayImage::new(1, 1), error_b: GrayImage::new(1, 1),
+/// };
+/// let scores = [arc(100.0), arc(120.0), arc(110.0), arc(480.0)];
+/// let contrast = arc_contrast(&scores).ok_or("no arc looked at pixels")?;
+/// assert!((contrast - 4.0).abs() < 1e-9); // 0.48 against the median 0.12
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn arc_contrast(scores: &[PairScore]) -> Option<f64> {
+    let mut shares: Vec<f64> = scores.iter().filter_map(PairScore::share).collect();
+    shares.sort_by(f64::total_cmp);
+    let (worst, median) = (*shares.last()?, shares[shares.len() / 2]);
+    (median > 0.0).then(|| worst / median)
+}
+
+/// The [`arc_contrast`] of evenly spaced views at or above which the capture loop takes the
+/// object to have a view-dependent surface (`aibr::FacesFirst::Auto`). Measured on the five
+/// synthetic scenes, 12 uniform views at each of twelve placements (`docs/results.md`,
+/// "Session 75"): `lambertian`, `head` and `chair` 1.03 to 1.37; `mirror` and `mirror-broad`
+/// 3.07 to 5.35. 2 lies between, by a factor of about 1.5 from either side.
+pub const VIEW_DEPENDENT_CONTRAST: f64 = 2.0;
+
 /// Neighbouring pairs of views on the ring, by pan angle: `(i, j)` with `pans[i] < pans[j]`
 /// adjacent. On a full-turn range the last view pairs with the first; on a partial range the
 /// opening is not an arc.
@@ -326,6 +373,55 @@ mod tests {
         assert_eq!(grey(f32::NAN), 0);
         assert_eq!(round_index(f64::NAN), 0);
         assert_eq!(round_index(f64::INFINITY), u32::MAX);
+    }
+
+    /// A score over `pixels` pixels, all compared.
+    fn arc(score: f64, pixels: usize) -> PairScore {
+        PairScore {
+            a: 0,
+            b: 1,
+            score,
+            unexplained_pixels: 0,
+            compared_pixels: pixels,
+            error_a: GrayImage::new(1, 1),
+            error_b: GrayImage::new(1, 1),
+        }
+    }
+
+    proptest! {
+        /// The contrast is at least 1, the worst share over the upper median, and does not
+        /// change when every arc looks at more pixels in proportion.
+        #[test]
+        fn contrast_is_the_worst_share_over_the_median(
+            arcs in prop::collection::vec((1.0f64..1000.0, 1000usize..5000), 1..20),
+            scale in 1usize..5,
+        ) {
+            let scores: Vec<PairScore> = arcs.iter().map(|&(s, p)| arc(s, p)).collect();
+            let contrast = arc_contrast(&scores).ok_or_else(|| TestCaseError::fail("no contrast"))?;
+            let mut shares: Vec<f64> = arcs.iter().map(|&(s, p)| s / p as f64).collect();
+            shares.sort_by(f64::total_cmp);
+            prop_assert!(contrast >= 1.0);
+            prop_assert_eq!(contrast, shares[shares.len() - 1] / shares[shares.len() / 2]);
+            let scaled: Vec<PairScore> =
+                arcs.iter().map(|&(s, p)| arc(s * scale as f64, p * scale)).collect();
+            let again = arc_contrast(&scaled).ok_or_else(|| TestCaseError::fail("no contrast"))?;
+            prop_assert!((again - contrast).abs() <= 1e-9 * contrast);
+        }
+    }
+
+    #[test]
+    fn no_contrast_without_pixels_or_with_a_consistent_median() {
+        assert_eq!(arc_contrast(&[]), None);
+        assert_eq!(arc_contrast(&[arc(0.0, 0), arc(5.0, 0)]), None);
+        assert_eq!(arc(5.0, 0).share(), None);
+        // The median arc wholly consistent: no ratio to take.
+        assert_eq!(
+            arc_contrast(&[arc(0.0, 100), arc(0.0, 100), arc(9.0, 100)]),
+            None
+        );
+        // Arcs that looked at nothing are left out, not counted as consistent.
+        let contrast = arc_contrast(&[arc(1.0, 100), arc(0.0, 0), arc(3.0, 100)]);
+        assert_eq!(contrast, Some(1.0));
     }
 
     /// Every pair's two checks, each made alone, are what `score_pairs` reports for it: the

@@ -54,7 +54,9 @@ pub mod foreground;
 pub mod planner;
 
 pub use error::{Error, Result};
-pub use estimator::{ConsistencyParams, PairScore, ring_pairs, score_pairs};
+pub use estimator::{
+    ConsistencyParams, PairScore, VIEW_DEPENDENT_CONTRAST, arc_contrast, ring_pairs, score_pairs,
+};
 pub use planner::{
     AIM_DONE_DEG, PlanParams, Proposal, TurntableLimits, edge_on_pans, plan_next, plan_next_aimed,
     plan_next_among,
