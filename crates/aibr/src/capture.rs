@@ -6,8 +6,8 @@ use std::time::Instant;
 use aibr_camera::{Aabb, Angle, CircularMotion, PanRange};
 use aibr_consistency::foreground::{BackdropDifference, foreground_from_backdrop, median_backdrop};
 use aibr_consistency::{
-    ConsistencyParams, PairScore, PlanParams, TurntableLimits, edge_on_pans, plan_next_among,
-    score_pairs,
+    ConsistencyParams, PairScore, PlanParams, TurntableLimits, VIEW_DEPENDENT_CONTRAST,
+    arc_contrast, edge_on_pans, plan_next_among, score_pairs,
 };
 use aibr_render::{RenderParams, RenderedView, Renderer, SourceView};
 use aibr_voxel::{
@@ -52,6 +52,84 @@ impl Strategy {
     }
 }
 
+/// Whether the active planner serves every flat face of the model with a view in its plane
+/// before splitting arcs by rank alone ([`PlanParams::faces_first`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "FacesFirstRecord", into = "FacesFirstRecord")]
+pub enum FacesFirst {
+    /// Never: arcs are split by rank, at a face's edge-on pan only near their middle.
+    Off,
+    /// Always.
+    On,
+    /// When the initial views show a view-dependent surface: their arcs'
+    /// [`arc_contrast`](aibr_consistency::arc_contrast) at or above
+    /// [`VIEW_DEPENDENT_CONTRAST`](aibr_consistency::VIEW_DEPENDENT_CONTRAST). Serving faces
+    /// first renders `mirror` better and matte objects worse (`docs/results.md`, "Session
+    /// 75"); decided once, from the evenly spaced initial views, where a mirror's arcs stand
+    /// out (among uneven arcs their widths weigh in as much).
+    Auto,
+}
+
+impl FacesFirst {
+    /// `false`, `true` or `auto`, as `session.json` and the command line write it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            FacesFirst::Off => "false",
+            FacesFirst::On => "true",
+            FacesFirst::Auto => "auto",
+        }
+    }
+
+    /// Parses `false`, `true` or `auto`.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "false" => Ok(FacesFirst::Off),
+            "true" => Ok(FacesFirst::On),
+            "auto" => Ok(FacesFirst::Auto),
+            _ => Err(Error::InvalidParameter {
+                name: "faces_first",
+                reason: format!("{s:?} is not false, true or auto"),
+            }),
+        }
+    }
+}
+
+impl std::fmt::Display for FacesFirst {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// [`FacesFirst`] in `session.json`: a boolean, as files written before `auto` hold it, or
+/// `"auto"`.
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(untagged)]
+enum FacesFirstRecord {
+    Bool(bool),
+    Name(String),
+}
+
+impl TryFrom<FacesFirstRecord> for FacesFirst {
+    type Error = Error;
+
+    fn try_from(record: FacesFirstRecord) -> Result<Self> {
+        match record {
+            FacesFirstRecord::Bool(on) => Ok(if on { FacesFirst::On } else { FacesFirst::Off }),
+            FacesFirstRecord::Name(name) => FacesFirst::parse(&name),
+        }
+    }
+}
+
+impl From<FacesFirst> for FacesFirstRecord {
+    fn from(f: FacesFirst) -> Self {
+        match f {
+            FacesFirst::Off => FacesFirstRecord::Bool(false),
+            FacesFirst::On => FacesFirstRecord::Bool(true),
+            FacesFirst::Auto => FacesFirstRecord::Name(f.name().to_owned()),
+        }
+    }
+}
+
 /// Parameters of [`capture`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CaptureParams {
@@ -76,8 +154,9 @@ pub struct CaptureParams {
     /// middle; [`PlanParams::aim_reach`]).
     pub aim_reach: f64,
     /// Serve every flat face of the model with a view in its plane before splitting arcs by
-    /// rank alone (default false; [`PlanParams::faces_first`]).
-    pub faces_first: bool,
+    /// rank alone: never, always, or when the initial views show a view-dependent surface
+    /// (default [`FacesFirst::Off`]).
+    pub faces_first: FacesFirst,
     /// Serving faces first, a face is served by a view within this many degrees of its plane
     /// (default 1; [`PlanParams::face_served_deg`]).
     pub face_served_deg: f64,
@@ -94,7 +173,7 @@ impl Default for CaptureParams {
             consistent_below: 0.0,
             width_power: PlanParams::default().width_power,
             aim_reach: PlanParams::default().aim_reach,
-            faces_first: PlanParams::default().faces_first,
+            faces_first: FacesFirst::Off,
             face_served_deg: PlanParams::default().face_served_deg,
         }
     }
@@ -128,17 +207,18 @@ impl CaptureParams {
                 format!("must be between 8 and 512 voxels, not {}", self.grid),
             );
         }
-        self.plan().validate()?;
+        self.plan(self.faces_first != FacesFirst::Off).validate()?;
         Ok(())
     }
 
-    /// The planner's part.
-    pub fn plan(&self) -> PlanParams {
+    /// The planner's part, serving faces first or not as `serve_faces` says (for
+    /// [`FacesFirst::Auto`] the capture loop decides that from the initial views).
+    pub fn plan(&self, serve_faces: bool) -> PlanParams {
         PlanParams {
             consistent_below: self.consistent_below,
             width_power: self.width_power,
             aim_reach: self.aim_reach,
-            faces_first: self.faces_first,
+            faces_first: serve_faces,
             face_served_deg: self.face_served_deg,
         }
     }
@@ -170,6 +250,13 @@ pub enum Progress {
         /// The score of the arc it splits.
         score: f64,
     },
+    /// With [`FacesFirst::Auto`], what the initial views decided.
+    FacesFirstDecided {
+        /// Their arcs' [`arc_contrast`] (`None` when no arc could be compared).
+        contrast: Option<f64>,
+        /// Whether the planner serves faces first.
+        serve: bool,
+    },
 }
 
 /// Wall time per stage, milliseconds.
@@ -199,6 +286,11 @@ pub struct CaptureReport {
     pub timings: StageTimings,
     /// The reconstruction algorithm used (the last one).
     pub algorithm: &'static str,
+    /// Active capture: whether the planner served faces first ([`CaptureParams::faces_first`],
+    /// for [`FacesFirst::Auto`] as the initial views decided). False for uniform capture.
+    pub served_faces_first: bool,
+    /// With [`FacesFirst::Auto`], the initial views' [`arc_contrast`] that decided it.
+    pub initial_contrast: Option<f64>,
 }
 
 /// `n` pan angles spread over `range`, limits included, in whole steps.
@@ -445,7 +537,8 @@ pub(crate) fn renderer_with_masks<'m>(
 ///    views; split the worst at its middle angle, or at a pan near it that sees a flat face
 ///    of the model edge-on ([`CaptureParams::aim_reach`]); capture there. With
 ///    [`CaptureParams::faces_first`], a face no view sees edge-on yet is served first, in the
-///    best-ranked arc that holds one of its edge-on pans. A rig that reaches
+///    best-ranked arc that holds one of its edge-on pans ([`FacesFirst::Auto`]: when the
+///    initial views' arcs show a view-dependent surface, decided once). A rig that reaches
 ///    only some pans ([`Turntable::reachable`], a replayed ring) is asked for the one inside
 ///    that arc nearest that split, and an arc holding none is passed over. Stop at the budget,
 ///    or when every arc is consistent, too short to split or holds nothing reachable.
@@ -471,6 +564,13 @@ pub fn capture<R: Turntable + FrameSource>(
         shoot(rig, session, *pan, params.max, &mut timings, progress)?;
     }
     let mut stopped_early = false;
+    // Serving faces first: as asked, or for `Auto` as the initial views' arcs decide.
+    let mut serve_faces = match params.faces_first {
+        FacesFirst::Off => Some(false),
+        FacesFirst::On => Some(true),
+        FacesFirst::Auto => None,
+    };
+    let mut initial_contrast = None;
     if session.volume_pending() {
         let views = session.load_views()?;
         let search = search_box(&views);
@@ -481,7 +581,8 @@ pub fn capture<R: Turntable + FrameSource>(
         let volume = session.volume()?;
         // The calibration's pose model, when the planner aims at the model's flat faces.
         let motion = session.calibration()?.motion;
-        let aims_from = (params.aim_reach > 0.0 || params.faces_first).then_some(&motion);
+        let aims_from =
+            (params.aim_reach > 0.0 || params.faces_first != FacesFirst::Off).then_some(&motion);
         let mut scores: Vec<PairScore> = Vec::new();
         let mut aims: Vec<Vec<Angle>> = Vec::new();
         let mut since_refine = 0usize;
@@ -491,6 +592,28 @@ pub fn capture<R: Turntable + FrameSource>(
         let mut must_refine = true;
         // Decoded once; each capture adds its own view (not the whole session again).
         let mut views = session.load_views()?;
+        // What `Auto` decided from the initial views' scores.
+        let mut decide = |scores: &[PairScore], progress: &mut dyn FnMut(Progress)| {
+            let contrast = arc_contrast(scores);
+            let serve = contrast.is_some_and(|c| c >= VIEW_DEPENDENT_CONTRAST);
+            progress(Progress::FacesFirstDecided { contrast, serve });
+            initial_contrast = contrast;
+            serve
+        };
+        if serve_faces.is_none() && views.len() > params.initial {
+            // Resumed past the initial views: score them again, as the run that captured
+            // them did.
+            let (initial_scores, _) = score_views(
+                &views[..params.initial],
+                &volume,
+                params,
+                &range,
+                None,
+                &mut timings,
+                &mut algorithm,
+            )?;
+            serve_faces = Some(decide(&initial_scores, progress));
+        }
         if extra % params.refine_every != 0 {
             // Rebuild the scores the uninterrupted run had at its last refinement.
             let refined_at = params.initial + extra - extra % params.refine_every;
@@ -533,6 +656,11 @@ pub fn capture<R: Turntable + FrameSource>(
                 since_refine = 0;
                 must_refine = false;
             }
+            // The first refinement of a fresh run is of the initial views.
+            let serve = match serve_faces {
+                Some(serve) => serve,
+                None => *serve_faces.insert(decide(&scores, progress)),
+            };
             let pans = session.pans();
             let reachable = rig.reachable();
             let planned = plan_next_among(
@@ -541,7 +669,7 @@ pub fn capture<R: Turntable + FrameSource>(
                 &aims,
                 reachable.as_deref(),
                 &limits,
-                &params.plan(),
+                &params.plan(serve),
             )?;
             let Some(next) = planned else {
                 stopped_early = true;
@@ -563,6 +691,8 @@ pub fn capture<R: Turntable + FrameSource>(
         stopped_early,
         timings,
         algorithm,
+        served_faces_first: params.strategy == Strategy::Active && serve_faces == Some(true),
+        initial_contrast,
     })
 }
 

@@ -342,6 +342,11 @@ pub struct NovelView {
 pub struct StrategyEval {
     /// The strategy.
     pub strategy: Strategy,
+    /// Active capture: whether its planner served faces first
+    /// ([`CaptureParams::faces_first`](crate::CaptureParams::faces_first); with
+    /// [`FacesFirst::Auto`](crate::FacesFirst::Auto), as its initial views decided). `None`
+    /// for uniform capture.
+    pub served_faces_first: Option<bool>,
     /// One per checkpoint, in order.
     pub checkpoints: Vec<Checkpoint>,
 }
@@ -442,6 +447,7 @@ pub fn evaluate_rig<R: EvalRig>(
         let mut checkpoints = Vec::new();
         // The active views at n are the first n of one run (decoded once); a uniform set is
         // its own run.
+        let mut served_faces_first = None;
         let active = match strategy {
             Strategy::Active if !params.checkpoints.is_empty() => {
                 let dir = work_dir.join(format!("{name}-active"));
@@ -449,7 +455,8 @@ pub fn evaluate_rig<R: EvalRig>(
                     strategy,
                     ..params.capture
                 };
-                let session = run(rig, spec, &dir, &p, progress)?;
+                let (session, served) = run(rig, spec, &dir, &p, progress)?;
+                served_faces_first = Some(served);
                 let views = session.load_views()?;
                 Some((session, views))
             }
@@ -467,7 +474,7 @@ pub fn evaluate_rig<R: EvalRig>(
                         initial: n.min(params.capture.initial).max(3),
                         ..params.capture
                     };
-                    let s = run(rig, spec, &dir, &p, progress)?;
+                    let (s, _) = run(rig, spec, &dir, &p, progress)?;
                     let v = s.load_views()?;
                     uniform = (s, v);
                     (&uniform.0, &uniform.1)
@@ -482,6 +489,7 @@ pub fn evaluate_rig<R: EvalRig>(
         }
         out.push(StrategyEval {
             strategy,
+            served_faces_first,
             checkpoints,
         });
     }
@@ -543,13 +551,15 @@ fn mean_of(views: &[&NovelView], f: fn(&NovelView) -> f64) -> f64 {
     views.iter().map(|v| f(v)).sum::<f64>() / views.len().max(1) as f64
 }
 
+/// Captures (or continues) the session in `dir`; with whether its planner served faces
+/// first.
 fn run<R: EvalRig>(
     template: &R,
     spec: &str,
     dir: &Path,
     params: &CaptureParams,
     progress: &mut dyn FnMut(String),
-) -> Result<Session> {
+) -> Result<(Session, bool)> {
     let mut rig = template.fresh()?;
     let calibration = rig.eval_calibration()?;
     let mut session = if dir.join("session.json").exists() {
@@ -572,12 +582,17 @@ fn run<R: EvalRig>(
         crate::new_session_with_volume(dir, spec, &rig, &calibration, params, volume)?
     };
     let name = params.strategy.name();
-    capture(&mut rig, &mut session, params, &mut |p| {
-        if let crate::Progress::Captured { count, budget, .. } = p {
+    let report = capture(&mut rig, &mut session, params, &mut |p| match p {
+        crate::Progress::Captured { count, budget, .. } => {
             progress(format!("{name}: {count}/{budget} views"));
         }
+        crate::Progress::FacesFirstDecided { contrast, serve } => progress(format!(
+            "{name}: initial arcs' contrast {}, faces first {serve}",
+            contrast.map_or("none".into(), |c| format!("{c:.2}"))
+        )),
+        _ => {}
     })?;
-    Ok(session)
+    Ok((session, report.served_faces_first))
 }
 
 /// Ground-truth image and object mask per pan angle (its radians' bits).

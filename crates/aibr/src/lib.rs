@@ -50,9 +50,9 @@ pub use aibr_v4l as v4l;
 pub use aibr_voxel as voxel;
 
 pub use capture::{
-    CaptureParams, CaptureReport, Progress, StageTimings, Strategy, capture, estimate_volume,
-    pair_scores, reconstruct, reconstruct_loaded, reconstruct_refined, reconstruct_views,
-    render_loaded, render_session, renderer_for, renderer_with, uniform_pans,
+    CaptureParams, CaptureReport, FacesFirst, Progress, StageTimings, Strategy, capture,
+    estimate_volume, pair_scores, reconstruct, reconstruct_loaded, reconstruct_refined,
+    reconstruct_views, render_loaded, render_session, renderer_for, renderer_with, uniform_pans,
 };
 pub use error::{Error, Result};
 pub use eval::{

@@ -82,10 +82,11 @@ pub struct ParametersRecord {
     #[serde(default)]
     pub aim_reach: f64,
     /// Whether the planner served every flat face of the model with a view in its plane
-    /// before splitting arcs by rank alone; false in files written before it was recorded,
+    /// before splitting arcs by rank alone (`false`, `true`, or `"auto"`: when the initial
+    /// views show a view-dependent surface); false in files written before it was recorded,
     /// which did not.
-    #[serde(default)]
-    pub faces_first: bool,
+    #[serde(default = "ParametersRecord::faces_first_before_recorded")]
+    pub faces_first: crate::FacesFirst,
     /// Serving faces first, how near a face's plane (degrees) a view served it; 1 in files
     /// written before it was recorded, which served faces within 1 degree.
     #[serde(default = "ParametersRecord::face_served_deg_before_recorded")]
@@ -113,6 +114,10 @@ impl ParametersRecord {
         1.0
     }
 
+    fn faces_first_before_recorded() -> crate::FacesFirst {
+        crate::FacesFirst::Off
+    }
+
     fn face_served_deg_before_recorded() -> f64 {
         1.0
     }
@@ -137,7 +142,10 @@ impl ParametersRecord {
             ("faces_first", shown(active, &self.faces_first)),
             (
                 "face_served_deg",
-                shown(active && self.faces_first, &self.face_served_deg),
+                shown(
+                    active && self.faces_first != crate::FacesFirst::Off,
+                    &self.face_served_deg,
+                ),
             ),
         ]
     }
@@ -852,7 +860,7 @@ mod tests {
         };
         let params = crate::CaptureParams::default();
         let first = |face_served_deg| crate::CaptureParams {
-            faces_first: true,
+            faces_first: crate::FacesFirst::On,
             face_served_deg,
             ..params
         };
@@ -879,7 +887,7 @@ mod tests {
         let replanned = crate::CaptureParams {
             width_power: 1.0,
             aim_reach: 0.0,
-            faces_first: true,
+            faces_first: crate::FacesFirst::On,
             face_served_deg: 2.5,
             ..uniform
         };
@@ -902,6 +910,42 @@ mod tests {
             .ok_or("resumed at another tolerance")?;
         assert!(
             err.to_string().contains("face_served_deg 1, not 2.5"),
+            "{err}"
+        );
+        // Deciding from the initial views: recorded as "auto", resumed only as auto, and its
+        // tolerance counts (faces may have been served).
+        let auto = |face_served_deg| crate::CaptureParams {
+            faces_first: crate::FacesFirst::Auto,
+            face_served_deg,
+            ..params
+        };
+        let session = rewrite(&|p| {
+            p.insert("faces_first".into(), "auto".into());
+        })?;
+        assert_eq!(
+            session.file().parameters.faces_first,
+            crate::FacesFirst::Auto
+        );
+        session.check_parameters("sim:mirror", &auto(1.0))?;
+        for (other, expected) in [
+            (first(1.0), "faces_first auto, not true"),
+            (auto(2.5), "face_served_deg 1, not 2.5"),
+        ] {
+            let err = session
+                .check_parameters("sim:mirror", &other)
+                .err()
+                .ok_or("resumed with other faces-first parameters")?;
+            assert!(err.to_string().contains(expected), "{err}");
+        }
+        // Anything else is refused, naming what it read.
+        let err = rewrite(&|p| {
+            p.insert("faces_first".into(), "sometimes".into());
+        })
+        .err()
+        .ok_or("read faces_first \"sometimes\"")?;
+        assert!(
+            err.to_string()
+                .contains("\"sometimes\" is not false, true or auto"),
             "{err}"
         );
         let _ = std::fs::remove_dir_all(&dir);

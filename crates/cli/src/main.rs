@@ -342,14 +342,15 @@ struct PlanArgs {
     aim_reach: f64,
     /// The active planner first serves every flat face of the model: while a face has no view
     /// within `--face-served-deg` of a pan that sees it edge-on, it splits the best-ranked arc
-    /// holding such a pan there, and only then splits arcs by rank alone (true or false).
+    /// holding such a pan there, and only then splits arcs by rank alone. true, false, or auto:
+    /// when the initial views' arcs show a view-dependent surface (a mirror), decided once.
     #[arg(
         long,
         default_value_t = CaptureParams::default().faces_first,
-        value_name = "BOOL",
-        action = clap::ArgAction::Set
+        value_name = "false|true|auto",
+        value_parser = parse_faces_first
     )]
-    faces_first: bool,
+    faces_first: aibr::FacesFirst,
     /// Serving faces first, a face counts as served when a view lies within this many degrees
     /// of a pan that sees it edge-on (more than 0, at most 10).
     #[arg(
@@ -697,6 +698,11 @@ fn degrees_in(text: &str, name: &str, v: &str) -> std::result::Result<f64, Strin
         .ok()
         .filter(|x| x.is_finite())
         .ok_or_else(|| format!("{text:?}: {name} {v:?} is not a number of degrees"))
+}
+
+/// `--faces-first`: false, true or auto.
+fn parse_faces_first(text: &str) -> std::result::Result<aibr::FacesFirst, String> {
+    aibr::FacesFirst::parse(text).map_err(|e| e.to_string())
 }
 
 fn parse_arc(text: &str) -> std::result::Result<aibr::ObjectArc, String> {
@@ -1195,6 +1201,15 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
             "next at {:.2} deg (arc score {score:.0})",
             pan.degrees()
         )),
+        Progress::FacesFirstDecided { contrast, serve } => reporter.message(format!(
+            "initial arcs' contrast {}: {}",
+            contrast.map_or("none".into(), |c| format!("{c:.2}")),
+            if serve {
+                "a view-dependent surface, faces served first"
+            } else {
+                "faces not served first"
+            }
+        )),
     })?;
     reporter.finish();
     if a.json {
@@ -1214,6 +1229,9 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
                 "resumed_from": report.resumed_from,
                 "stopped_early": report.stopped_early,
                 "algorithm": report.algorithm,
+                "faces_first": params.faces_first.name(),
+                "served_faces_first": report.served_faces_first,
+                "initial_contrast": report.initial_contrast,
                 "views": views,
                 "timings_ms": {"capture_ms": t.capture_ms, "coloring_ms": t.coloring_ms, "scoring_ms": t.scoring_ms, "total_ms": t.total_ms},
             }))?
@@ -1228,6 +1246,16 @@ fn capture_on<R: aibr::Turntable + aibr::FrameSource>(
             params.strategy.name(),
             report.timings.total_ms / 1e3
         );
+        if let Some(contrast) = report.initial_contrast {
+            println!(
+                "faces first: auto, the initial arcs' contrast {contrast:.2} ({})",
+                if report.served_faces_first {
+                    "served"
+                } else {
+                    "not served"
+                }
+            );
+        }
         println!(
             "pan angles (deg): {}",
             pans.iter()
@@ -1627,7 +1655,11 @@ fn results_json(results: &[aibr::StrategyEval], arc: Option<&ArcReport>) -> Vec<
                 .iter()
                 .map(|c| checkpoint_json(c, arc))
                 .collect();
-            serde_json::json!({ "strategy": r.strategy.name(), "checkpoints": checkpoints })
+            serde_json::json!({
+                "strategy": r.strategy.name(),
+                "served_faces_first": r.served_faces_first,
+                "checkpoints": checkpoints,
+            })
         })
         .collect()
 }
