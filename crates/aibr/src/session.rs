@@ -847,18 +847,21 @@ mod tests {
         let (dir, session) = fresh("face-tolerance")?;
         drop(session);
         let path = dir.join("session.json");
-        // Rewrites the folder's parameters as `edit` makes them of the defaults' record.
+        // The defaults, but never serving faces first.
+        let params = crate::CaptureParams {
+            faces_first: crate::FacesFirst::Off,
+            ..crate::CaptureParams::default()
+        };
+        // Rewrites the folder's parameters as `edit` makes them of the record of `params`.
         let rewrite = |edit: &dyn Fn(&mut serde_json::Map<String, serde_json::Value>)| {
             let mut json: serde_json::Value =
                 serde_json::from_str(&std::fs::read_to_string(&path)?)?;
-            let mut parameters =
-                serde_json::to_value(ParametersRecord::of(&crate::CaptureParams::default()))?;
+            let mut parameters = serde_json::to_value(ParametersRecord::of(&params))?;
             edit(parameters.as_object_mut().ok_or("parameters not a map")?);
             json["parameters"] = parameters;
             std::fs::write(&path, serde_json::to_string_pretty(&json)?)?;
             Session::open(&dir).map_err(Box::<dyn std::error::Error>::from)
         };
-        let params = crate::CaptureParams::default();
         let first = |face_served_deg| crate::CaptureParams {
             faces_first: crate::FacesFirst::On,
             face_served_deg,
@@ -947,6 +950,14 @@ mod tests {
             err.to_string()
                 .contains("\"sometimes\" is not false, true or auto"),
             "{err}"
+        );
+        // Written before it was recorded: faces were not served first.
+        let session = rewrite(&|p| {
+            p.remove("faces_first");
+        })?;
+        assert_eq!(
+            session.file().parameters.faces_first,
+            crate::FacesFirst::Off
         );
         let _ = std::fs::remove_dir_all(&dir);
         Ok(())

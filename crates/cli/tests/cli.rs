@@ -475,20 +475,32 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
         "{err}"
     );
     assert_success(&resume(&["--width-power", "1", "--aim-reach", "0"])?);
-    // And serving the faces first, which this session was not planned with.
-    let out = resume(&[
-        "--width-power",
-        "1",
-        "--aim-reach",
-        "0",
-        "--faces-first",
-        "true",
-    ])?;
+    // And the faces: this session decided from its initial views whether to serve them first
+    // (auto, the default), so it is refused with true; written before that was recorded,
+    // when faces were not served first, it resumes with false only.
+    let planned = ["--width-power", "1", "--aim-reach", "0"];
+    let out = resume(&[&planned[..], &["--faces-first", "true"]].concat())?;
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        !out.status.success() && err.contains("faces_first false, not true"),
+        !out.status.success() && err.contains("faces_first auto, not true"),
         "{err}"
     );
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&file)?)?;
+    json["parameters"]
+        .as_object_mut()
+        .ok_or("no parameters")?
+        .remove("faces_first")
+        .ok_or("faces_first not recorded")?;
+    std::fs::write(&file, serde_json::to_vec_pretty(&json)?)?;
+    let out = resume(&planned)?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("faces_first false, not auto"),
+        "{err}"
+    );
+    assert_success(&resume(
+        &[&planned[..], &["--faces-first", "false"]].concat(),
+    )?);
 
     // A corrupt view: checksum mismatch, named.
     let view = dir.join("views/0002.png");
