@@ -17,6 +17,8 @@
 //!   at a slant comes out of voxel coloring a few voxels too fat, and a view in its plane
 //!   cuts that away; with [`PlanParams::faces_first`] the planner first serves every face
 //!   with a view in its plane, in the best-ranked arc holding one of its edge-on pans.
+//!   [`arc_contrast`] says whether evenly spaced views see a view-dependent surface (a mirror's
+//!   arcs stand out from the rest), where serving faces first pays.
 //!   [`plan_next_among`] plans for a turntable that reaches only some pans
 //!   (a replayed ring's recorded views): the reachable pan inside the chosen arc nearest
 //!   where the split would be, arcs holding none passed over.

@@ -71,7 +71,10 @@ pub struct PlanParams {
     /// whose many faces take most of the views (`docs/results.md`, "Session 38"). Since each
     /// face's plane is refitted to its outer profile (session 71), the cost on `lambertian`
     /// is 0.36 dB against uniform capture at 24 views from 12 initial ones, beyond issue 7's
-    /// 0.2 dB bound, and 0.19 at 36 (`docs/results.md`, "Session 74").
+    /// 0.2 dB bound, and 0.19 at 36 (`docs/results.md`, "Session 74"). So `aibr`'s capture
+    /// loop sets it, by default, only when its initial views show a view-dependent surface
+    /// ([`arc_contrast`](crate::arc_contrast) at least
+    /// [`VIEW_DEPENDENT_CONTRAST`](crate::VIEW_DEPENDENT_CONTRAST)).
     pub faces_first: bool,
     /// Serving faces first, a face counts as served when a view lies within this many degrees
     /// of one of its edge-on pans (default [`AIM_DONE_DEG`], 1; more than 0, at most
