@@ -414,6 +414,23 @@ fn check_out(out: &Path) -> Result<()> {
 }
 
 /// One sentence for the report page (HTML) saying how `params` render the novel views.
+/// What the active capture decided about serving faces first, for the report page.
+fn describe_faces_first(results: &[StrategyEval]) -> &'static str {
+    match results.iter().find_map(|r| r.served_faces_first) {
+        Some(true) => {
+            " The initial views showed a view-dependent surface (one arc scoring far worse than \
+             the rest, as a mirror's do), so active first put a view in the plane of every flat \
+             face of the model (<code>--faces-first auto</code>)."
+        }
+        Some(false) => {
+            " The initial views showed no view-dependent surface, so active split arcs by rank \
+             alone, aiming at the model's flat faces only near an arc's middle \
+             (<code>--faces-first auto</code>)."
+        }
+        None => "",
+    }
+}
+
 fn describe_renderer(params: &aibr::render::RenderParams) -> String {
     let depth = match params.refine {
         Some(r) => {
@@ -597,7 +614,7 @@ pub(crate) fn run(a: DemoArgs) -> Result<PathBuf> {
 <body>
 <h1>Active against uniform capture: <code>{scene}</code></h1>
 <p>{initial} uniform views first, then one view at a time up to {max}: <b>active</b> splits the
-arc the consistency estimate ranks worst, <b>uniform</b> spreads every view evenly. Each
+arc the consistency estimate ranks worst, <b>uniform</b> spreads every view evenly.{faces} Each
 checkpoint renders every uncaptured pan angle (every {step:.0}°) from a {grid}<sup>3</sup> model
 and compares it with the ground truth inside the object mask (a coarse grid, to keep the demo
 short: <code>aibr eval --rig sim:{scene}</code> measures every degree, and its means differ by
@@ -637,6 +654,7 @@ window.addEventListener('load', () => {{
 </body></html>
 "#,
         scene = a.scene,
+        faces = describe_faces_first(&results),
         initial = params.capture.initial,
         step = params.step.degrees(),
         grid = params.grid,
