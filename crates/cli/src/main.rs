@@ -1084,6 +1084,14 @@ fn capture(a: CaptureArgs) -> Result<()> {
             capture_on(a, &spec, &mut rig, &calibration)
         }
         _ => {
+            if a.rig.starts_with("replay:") {
+                bail!(
+                    "--rig {:?}: a replayed data set serves `aibr eval` only, where its views \
+                     left out are the truth; aibr capture takes sim:SCENE, or --turntable \
+                     ptu:PATH with --camera",
+                    a.rig
+                );
+            }
             let mut rig = SimRig::from_spec(&a.rig)?;
             let calibration = rig.calibration()?;
             let spec = a.rig.clone();

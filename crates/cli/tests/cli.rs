@@ -534,6 +534,20 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
         .arg(temp("rig"))
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("expected sim:SCENE"));
+    // A replay rig is eval's, and capture says so rather than call it unknown.
+    let out = aibr()
+        .arg("capture")
+        .args(["--rig", "replay:/no/such/ring"])
+        .arg("--out")
+        .arg(temp("replay"))
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && err.contains("serves `aibr eval` only")
+            && !temp("replay").exists(),
+        "{err}"
+    );
     let out = aibr()
         .args(["scene", "render", "teapot", "--pan", "0", "-o", "x.png"])
         .output()?;
