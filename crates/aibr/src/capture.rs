@@ -64,10 +64,10 @@ pub enum FacesFirst {
     /// When the initial views show a view-dependent surface: their arcs' [`arc_contrast`] at
     /// or above [`VIEW_DEPENDENT_CONTRAST`]. Decided once, from the evenly spaced initial
     /// views, where a mirror's arcs stand out (among uneven arcs their widths weigh in as
-    /// much). The default: serving faces first renders `mirror` better than not at 24, 36
-    /// and 48 views, but puts `lambertian` 0.36 dB behind uniform capture at 24 views and
-    /// costs `head` its lead (`docs/results.md`, "Session 75"); from 12 initial views only
-    /// the mirror scenes decide for it.
+    /// much). The default: serving faces first renders `mirror` and `mirror-broad` better
+    /// than not at 24, 36 and 48 views, but puts `lambertian` 0.36 dB behind uniform capture
+    /// at 24 views and costs `head` its lead (`docs/results.md`, "Session 75" and "Session
+    /// 76"); from 12 initial views only the mirror scenes decide for it.
     Auto,
 }
 
