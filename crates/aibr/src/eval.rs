@@ -16,8 +16,8 @@ use aibr_voxel::{
 use image::{GrayImage, RgbImage};
 
 use crate::capture::{
-    CaptureParams, Strategy, VOXEL_COLORING, capture, reconstruct_views, renderer_with_masks,
-    voxel_views,
+    CaptureParams, CaptureReport, Strategy, VOXEL_COLORING, capture, reconstruct_views,
+    renderer_with_masks, voxel_views,
 };
 use crate::error::{Error, Result};
 use crate::replay::ReplayRig;
@@ -347,6 +347,10 @@ pub struct StrategyEval {
     /// [`FacesFirst::Auto`](crate::FacesFirst::Auto), as its initial views decided). `None`
     /// for uniform capture.
     pub served_faces_first: Option<bool>,
+    /// Active capture with [`FacesFirst::Auto`](crate::FacesFirst::Auto): the initial views'
+    /// [`arc_contrast`](crate::consistency::arc_contrast) that decided it. `None` otherwise,
+    /// or when no arc could be compared.
+    pub initial_contrast: Option<f64>,
     /// One per checkpoint, in order.
     pub checkpoints: Vec<Checkpoint>,
 }
@@ -447,7 +451,7 @@ pub fn evaluate_rig<R: EvalRig>(
         let mut checkpoints = Vec::new();
         // The active views at n are the first n of one run (decoded once); a uniform set is
         // its own run.
-        let mut served_faces_first = None;
+        let (mut served_faces_first, mut initial_contrast) = (None, None);
         let active = match strategy {
             Strategy::Active if !params.checkpoints.is_empty() => {
                 let dir = work_dir.join(format!("{name}-active"));
@@ -455,8 +459,9 @@ pub fn evaluate_rig<R: EvalRig>(
                     strategy,
                     ..params.capture
                 };
-                let (session, served) = run(rig, spec, &dir, &p, progress)?;
-                served_faces_first = Some(served);
+                let (session, report) = run(rig, spec, &dir, &p, progress)?;
+                served_faces_first = Some(report.served_faces_first);
+                initial_contrast = report.initial_contrast;
                 let views = session.load_views()?;
                 Some((session, views))
             }
@@ -490,6 +495,7 @@ pub fn evaluate_rig<R: EvalRig>(
         out.push(StrategyEval {
             strategy,
             served_faces_first,
+            initial_contrast,
             checkpoints,
         });
     }
@@ -551,15 +557,15 @@ fn mean_of(views: &[&NovelView], f: fn(&NovelView) -> f64) -> f64 {
     views.iter().map(|v| f(v)).sum::<f64>() / views.len().max(1) as f64
 }
 
-/// Captures (or continues) the session in `dir`; with whether its planner served faces
-/// first.
+/// Captures (or continues) the session in `dir`; with the capture's report (whether its
+/// planner served faces first, and the contrast that decided it).
 fn run<R: EvalRig>(
     template: &R,
     spec: &str,
     dir: &Path,
     params: &CaptureParams,
     progress: &mut dyn FnMut(String),
-) -> Result<(Session, bool)> {
+) -> Result<(Session, CaptureReport)> {
     let mut rig = template.fresh()?;
     let calibration = rig.eval_calibration()?;
     let mut session = if dir.join("session.json").exists() {
@@ -592,7 +598,7 @@ fn run<R: EvalRig>(
         )),
         _ => {}
     })?;
-    Ok((session, report.served_faces_first))
+    Ok((session, report))
 }
 
 /// Ground-truth image and object mask per pan angle (its radians' bits).

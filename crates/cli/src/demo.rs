@@ -415,19 +415,28 @@ fn check_out(out: &Path) -> Result<()> {
 
 /// One sentence for the report page (HTML) saying how `params` render the novel views.
 /// What the active capture decided about serving faces first, for the report page.
-fn describe_faces_first(results: &[StrategyEval]) -> &'static str {
-    match results.iter().find_map(|r| r.served_faces_first) {
-        Some(true) => {
+fn describe_faces_first(results: &[StrategyEval]) -> String {
+    let Some(active) = results.iter().find(|r| r.served_faces_first.is_some()) else {
+        return String::new();
+    };
+    let contrast = active.initial_contrast.map_or(String::new(), |c| {
+        format!(
+            ": the worst arc scored {c:.2} times the median one, against the {} that decides",
+            aibr::consistency::VIEW_DEPENDENT_CONTRAST
+        )
+    });
+    if active.served_faces_first == Some(true) {
+        format!(
             " The initial views showed a view-dependent surface (one arc scoring far worse than \
-             the rest, as a mirror's do), so active first put a view in the plane of every flat \
-             face of the model (<code>--faces-first auto</code>)."
-        }
-        Some(false) => {
-            " The initial views showed no view-dependent surface, so active split arcs by rank \
-             alone, aiming at the model's flat faces only near an arc's middle \
-             (<code>--faces-first auto</code>)."
-        }
-        None => "",
+             the rest, as a mirror's do{contrast}), so active first put a view in the plane of \
+             every flat face of the model (<code>--faces-first auto</code>)."
+        )
+    } else {
+        format!(
+            " The initial views showed no view-dependent surface (no arc scoring far worse than \
+             the rest{contrast}), so active split arcs by rank alone, aiming at the model's flat \
+             faces only near an arc's middle (<code>--faces-first auto</code>)."
+        )
     }
 }
 

@@ -1666,6 +1666,7 @@ fn results_json(results: &[aibr::StrategyEval], arc: Option<&ArcReport>) -> Vec<
             serde_json::json!({
                 "strategy": r.strategy.name(),
                 "served_faces_first": r.served_faces_first,
+                "initial_contrast": r.initial_contrast,
                 "checkpoints": checkpoints,
             })
         })

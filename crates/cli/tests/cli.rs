@@ -827,6 +827,21 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
     let summary = small_eval_json(&budget, &work)?;
     let results = summary["results"].as_array().ok_or("no results")?;
     assert_eq!(results.len(), 2);
+    // Active capture says what its initial views decided (faces first by default: `auto`),
+    // and the decision follows the contrast; uniform capture plans nothing.
+    let active = &results[0];
+    assert_eq!(active["strategy"], "active");
+    let contrast = active["initial_contrast"]
+        .as_f64()
+        .ok_or("no initial contrast")?;
+    assert!(contrast >= 1.0, "{contrast}");
+    assert_eq!(
+        active["served_faces_first"].as_bool(),
+        Some(contrast >= 2.0),
+        "{contrast}"
+    );
+    assert!(results[1]["served_faces_first"].is_null());
+    assert!(results[1]["initial_contrast"].is_null());
     for r in results {
         let cps = r["checkpoints"].as_array().ok_or("no checkpoints")?;
         assert_eq!(

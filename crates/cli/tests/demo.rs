@@ -75,6 +75,12 @@ fn the_demo_writes_only_into_its_own_report_folder() -> TestResult {
     assert_eq!(figures(&again), figures(&first));
     assert!(figures(&first).is_some());
     assert!(first.contains("--reflections off"), "{first}");
+    // It says what active capture's initial views decided, and from what contrast.
+    assert!(
+        first.contains("<code>--faces-first auto</code>")
+            && first.contains("times the median one, against the 2 that decides"),
+        "{first}"
+    );
 
     // The renderer's options reach both the measured novel views and the page's renders, and
     // the page says which were taken. (At the quick settings reflections alone change the
