@@ -413,8 +413,8 @@ fn check_out(out: &Path) -> Result<()> {
     )
 }
 
-/// One sentence for the report page (HTML) saying how `params` render the novel views.
-/// What the active capture decided about serving faces first, for the report page.
+/// What the active capture decided about serving faces first, and from what contrast, for
+/// the report page (HTML).
 fn describe_faces_first(results: &[StrategyEval]) -> String {
     let Some(active) = results.iter().find(|r| r.served_faces_first.is_some()) else {
         return String::new();
@@ -440,6 +440,7 @@ fn describe_faces_first(results: &[StrategyEval]) -> String {
     }
 }
 
+/// One sentence for the report page (HTML) saying how `params` render the novel views.
 fn describe_renderer(params: &aibr::render::RenderParams) -> String {
     let depth = match params.refine {
         Some(r) => {
