@@ -67,7 +67,9 @@ pub enum FacesFirst {
     /// much). The default: serving faces first renders `mirror` and `mirror-broad` better
     /// than not at 24, 36 and 48 views, but puts `lambertian` 0.36 dB behind uniform capture
     /// at 24 views and costs `head` its lead (`docs/results.md`, "Session 75" and "Session
-    /// 76"); from 12 initial views only the mirror scenes decide for it.
+    /// 76"). From 12, 14 or 16 initial views the mirror scenes decide for it at every
+    /// placement measured and the matte ones against; from 8 or 10 the mirrors mostly do not
+    /// stand out, and the planner is then the plain one ("Session 76").
     Auto,
 }
 
