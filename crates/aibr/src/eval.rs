@@ -451,7 +451,8 @@ pub fn evaluate_rig<R: EvalRig>(
         let mut checkpoints = Vec::new();
         // The active views at n are the first n of one run (decoded once); a uniform set is
         // its own run.
-        let (mut served_faces_first, mut initial_contrast) = (None, None);
+        // Active capture's report: what its initial views decided about faces first.
+        let mut active_report = None;
         let active = match strategy {
             Strategy::Active if !params.checkpoints.is_empty() => {
                 let dir = work_dir.join(format!("{name}-active"));
@@ -459,9 +460,8 @@ pub fn evaluate_rig<R: EvalRig>(
                     strategy,
                     ..params.capture
                 };
-                let (session, report) = run(rig, spec, &dir, &p, progress)?;
-                served_faces_first = Some(report.served_faces_first);
-                initial_contrast = report.initial_contrast;
+                let (session, captured) = run(rig, spec, &dir, &p, progress)?;
+                active_report = Some(captured);
                 let views = session.load_views()?;
                 Some((session, views))
             }
@@ -494,8 +494,8 @@ pub fn evaluate_rig<R: EvalRig>(
         }
         out.push(StrategyEval {
             strategy,
-            served_faces_first,
-            initial_contrast,
+            served_faces_first: active_report.as_ref().map(|r| r.served_faces_first),
+            initial_contrast: active_report.and_then(|r| r.initial_contrast),
             checkpoints,
         });
     }

@@ -416,28 +416,33 @@ fn check_out(out: &Path) -> Result<()> {
 /// What the active capture decided about serving faces first, and from what contrast, for
 /// the report page (HTML).
 fn describe_faces_first(results: &[StrategyEval]) -> String {
-    let Some(active) = results.iter().find(|r| r.served_faces_first.is_some()) else {
+    let Some((served, contrast)) = results
+        .iter()
+        .find_map(|r| Some((r.served_faces_first?, r.initial_contrast)))
+    else {
         return String::new();
     };
-    let contrast = active.initial_contrast.map_or(String::new(), |c| {
+    let contrast = contrast.map_or(String::new(), |c| {
         format!(
             ": the worst arc scored {c:.2} times the median one, against the {} that decides",
             aibr::consistency::VIEW_DEPENDENT_CONTRAST
         )
     });
-    if active.served_faces_first == Some(true) {
-        format!(
-            " The initial views showed a view-dependent surface (one arc scoring far worse than \
-             the rest, as a mirror's do{contrast}), so active first put a view in the plane of \
-             every flat face of the model (<code>--faces-first auto</code>)."
+    let (surface, plan) = if served {
+        (
+            "a view-dependent surface (one arc scoring far worse than the rest, as a mirror's do",
+            "first put a view in the plane of every flat face of the model",
         )
     } else {
-        format!(
-            " The initial views showed no view-dependent surface (no arc scoring far worse than \
-             the rest{contrast}), so active split arcs by rank alone, aiming at the model's flat \
-             faces only near an arc's middle (<code>--faces-first auto</code>)."
+        (
+            "no view-dependent surface (no arc scoring far worse than the rest",
+            "split arcs by rank alone, aiming at the model's flat faces only near an arc's middle",
         )
-    }
+    };
+    format!(
+        " The initial views showed {surface}{contrast}), so active {plan} \
+         (<code>--faces-first auto</code>)."
+    )
 }
 
 /// One sentence for the report page (HTML) saying how `params` render the novel views.
