@@ -67,9 +67,9 @@ pub enum FacesFirst {
     /// much). The default: serving faces first renders `mirror` and `mirror-broad` better
     /// than not at 24, 36 and 48 views, but puts `lambertian` 0.36 dB behind uniform capture
     /// at 24 views and costs `head` its lead (`docs/results.md`, "Session 75" and "Session
-    /// 76"). From 12, 14 or 16 initial views the mirror scenes decide for it at every
-    /// placement measured and the matte ones against; from 8 or 10 the mirrors mostly do not
-    /// stand out, and the planner is then the plain one ("Session 76").
+    /// 76"). From 10, 12, 14 or 16 initial views the mirror scenes decide for it at every
+    /// placement measured and the matte ones against; from 8 the mirrors decide for it at 18
+    /// of 24 placements and the matte ones against ("Session 77").
     Auto,
 }
 

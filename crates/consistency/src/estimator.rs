@@ -62,33 +62,49 @@ impl PairScore {
         let pixels = self.compared_pixels + self.unexplained_pixels;
         (pixels > 0).then(|| self.score / pixels as f64)
     }
+
+    /// How inconsistent the pixels the model explains are: the score less what the
+    /// unexplained pixels add (1 each), over the pixels compared; 0 where all were
+    /// consistent, 1 where none was. `None` when it compared none.
+    pub fn compared_share(&self) -> Option<f64> {
+        (self.compared_pixels > 0).then(|| {
+            (self.score - self.unexplained_pixels as f64).max(0.0) / self.compared_pixels as f64
+        })
+    }
 }
 
-/// How far the worst arc stands out from the others: the largest [`PairScore::share`] over the
-/// median one (the upper median of an even count). `None` with no arc that looked at pixels,
-/// or when the median arc is wholly consistent.
+/// How far the worst arc stands out from the others: the largest
+/// [`PairScore::compared_share`] over the median one (the upper median of an even count).
+/// `None` with no arc that compared pixels, or when the median arc is wholly consistent.
 ///
-/// Among evenly spaced views a view-dependent surface stands out: a mirror reflects what
-/// lies around it, which the model cannot explain, so the arcs that see it score several
-/// times the rest, while a Lambertian object's arcs score alike
-/// ([`VIEW_DEPENDENT_CONTRAST`]). Among unevenly spaced views the width of each arc weighs in
-/// as much as the surface, so this reads the surface only from evenly spaced ones.
+/// Among evenly spaced views a view-dependent surface stands out: a mirror shows what lies
+/// around it, so where the model has a surface the two views of an arc that sees the mirror
+/// disagree several times as much as elsewhere, while a Lambertian object's arcs score alike
+/// ([`VIEW_DEPENDENT_CONTRAST`]). Only the compared pixels count: the pixels the model leaves
+/// unexplained mark the mirror's hole from 12 or more views, but from fewer the sweep leaves
+/// holes all round an object, and then they weigh every arc alike and hide the mirror
+/// (`docs/results.md`, "Session 77"). Among unevenly spaced views the width of each arc
+/// weighs in as much as the surface, so this reads the surface only from evenly spaced ones.
 ///
 /// ```
 /// use aibr_consistency::{PairScore, arc_contrast};
 /// use image::GrayImage;
 ///
-/// let arc = |score| PairScore {
-///     a: 0, b: 1, score, unexplained_pixels: 0, compared_pixels: 1000,
+/// let arc = |score, unexplained_pixels| PairScore {
+///     a: 0, b: 1, score, unexplained_pixels, compared_pixels: 1000,
 ///     error_a: GrayImage::new(1, 1), error_b: GrayImage::new(1, 1),
 /// };
-/// let scores = [arc(100.0), arc(120.0), arc(110.0), arc(480.0)];
-/// let contrast = arc_contrast(&scores).ok_or("no arc looked at pixels")?;
+/// // The last arc's 400 unexplained pixels add 400 to its score, and are not counted.
+/// let scores = [arc(100.0, 0), arc(120.0, 0), arc(110.0, 0), arc(880.0, 400)];
+/// let contrast = arc_contrast(&scores).ok_or("no arc compared pixels")?;
 /// assert!((contrast - 4.0).abs() < 1e-9); // 0.48 against the median 0.12
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn arc_contrast(scores: &[PairScore]) -> Option<f64> {
-    let mut shares: Vec<f64> = scores.iter().filter_map(PairScore::share).collect();
+    let mut shares: Vec<f64> = scores
+        .iter()
+        .filter_map(PairScore::compared_share)
+        .collect();
     shares.sort_by(f64::total_cmp);
     let (worst, median) = (*shares.last()?, shares[shares.len() / 2]);
     (median > 0.0).then(|| worst / median)
@@ -97,8 +113,10 @@ pub fn arc_contrast(scores: &[PairScore]) -> Option<f64> {
 /// The [`arc_contrast`] of evenly spaced views at or above which the capture loop takes the
 /// object to have a view-dependent surface (`aibr::FacesFirst::Auto`). Measured on the five
 /// synthetic scenes, 12 uniform views at each of twelve placements (`docs/results.md`,
-/// "Session 75"): `lambertian`, `head` and `chair` 1.03 to 1.37; `mirror` and `mirror-broad`
-/// 3.07 to 5.35. 2 lies between, by a factor of about 1.5 from either side.
+/// "Session 77"): `lambertian`, `head` and `chair` 1.03 to 1.34; `mirror` and `mirror-broad`
+/// 3.30 to 6.87. 2 lies between, by a factor of 1.5 or more from either side. From 10, 14 or
+/// 16 views the matte scenes stay at 1.70 or less and the mirrors at 2.47 or more; from 8
+/// the ranges meet (the matte scenes up to 1.59, the mirrors from 1.64).
 pub const VIEW_DEPENDENT_CONTRAST: f64 = 2.0;
 
 /// Neighbouring pairs of views on the ring, by pan angle: `(i, j)` with `pans[i] < pans[j]`
@@ -422,6 +440,39 @@ mod tests {
         // Arcs that looked at nothing are left out, not counted as consistent.
         let contrast = arc_contrast(&[arc(1.0, 100), arc(0.0, 0), arc(3.0, 100)]);
         assert_eq!(contrast, Some(1.0));
+    }
+
+    /// Pixels the model leaves unexplained do not count: holes all round an object (as the
+    /// sweep leaves from sparse views) cannot hide the arc whose compared pixels disagree, nor
+    /// can a hole in one arc make it stand out.
+    #[test]
+    fn contrast_reads_the_compared_pixels_only() -> TestResult {
+        let with_holes = |score: f64, unexplained: usize| PairScore {
+            unexplained_pixels: unexplained,
+            score: score + unexplained as f64,
+            ..arc(0.0, 1000)
+        };
+        // Every arc half unexplained, one disagreeing four times as much where compared.
+        let holes_everywhere = [
+            with_holes(100.0, 1000),
+            with_holes(110.0, 900),
+            with_holes(120.0, 1100),
+            with_holes(440.0, 1000),
+        ];
+        let contrast = arc_contrast(&holes_everywhere).ok_or("no contrast")?;
+        assert!((contrast - 440.0 / 120.0).abs() < 1e-9, "{contrast}");
+        // By the whole share these arcs would look alike (0.53 to 0.72).
+        let shares: Vec<f64> = holes_everywhere
+            .iter()
+            .filter_map(PairScore::share)
+            .collect();
+        assert!(shares.iter().all(|s| (0.5..0.75).contains(s)), "{shares:?}");
+        // One arc with a hole and nothing else wrong does not stand out.
+        let one_hole = [arc(100.0, 1000), with_holes(100.0, 3000), arc(100.0, 1000)];
+        assert_eq!(arc_contrast(&one_hole), Some(1.0));
+        assert_eq!(with_holes(100.0, 3000).compared_share(), Some(0.1));
+        assert_eq!(arc(5.0, 0).compared_share(), None);
+        Ok(())
     }
 
     /// Every pair's two checks, each made alone, are what `score_pairs` reports for it: the
