@@ -7,9 +7,9 @@ For each K, each scene and each of issue 7's twelve placements (turns 0, 2.5, ..
 captures K uniform views into WORK/SCENE@TURN-K (kept, and reused when there) with
 `aibr capture --strategy uniform --initial K --max K`, scores them with the example
 `arc_contrast` (the arcs' contrast, `aibr::consistency::arc_contrast`, from a 96^3 model as
-the capture loop makes it; and the same with each arc's compared share divided by its width), and
-prints per scene the range and median over the placements and at how many `auto` serves faces
-first (a contrast of 2 or more, `aibr::consistency::VIEW_DEPENDENT_CONTRAST`).
+the capture loop makes it; and the same with each arc's compared share divided by its width),
+and prints per scene the range and median over the placements and at how many `auto` serves
+faces first (a contrast of 2 or more, `aibr::consistency::VIEW_DEPENDENT_CONTRAST`).
 
 Build first: `cargo build --release -p aibr-cli && cargo build --release -p aibr --example
 arc_contrast`. The binaries are taken from target/release, or from $CARGO_TARGET_DIR/release.
