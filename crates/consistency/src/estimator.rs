@@ -114,8 +114,8 @@ pub fn arc_contrast(scores: &[PairScore]) -> Option<f64> {
 /// object to have a view-dependent surface (`aibr::FacesFirst::Auto`). Measured on the five
 /// synthetic scenes, 12 uniform views at each of twelve placements (`docs/results.md`,
 /// "Session 77"): `lambertian`, `head` and `chair` 1.03 to 1.34; `mirror` and `mirror-broad`
-/// 3.30 to 6.87. 2 lies between, by a factor of 1.5 or more from either side. From 10, 14 or
-/// 16 views the matte scenes stay at 1.70 or less and the mirrors at 2.47 or more; from 8
+/// 3.30 to 6.87. 2 lies between, 1.49 times the highest of the first and 1.65 times below
+/// the lowest of the second. From 10, 14 or 16 views the matte scenes stay at 1.70 or less and the mirrors at 2.47 or more; from 8
 /// the ranges meet (the matte scenes up to 1.59, the mirrors from 1.64).
 pub const VIEW_DEPENDENT_CONTRAST: f64 = 2.0;
 
@@ -452,7 +452,7 @@ mod tests {
             score: score + unexplained as f64,
             ..arc(0.0, 1000)
         };
-        // Every arc half unexplained, one disagreeing four times as much where compared.
+        // Every arc half unexplained, one disagreeing nearly four times as much where compared.
         let holes_everywhere = [
             with_holes(100.0, 1000),
             with_holes(110.0, 900),
