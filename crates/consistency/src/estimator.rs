@@ -115,8 +115,9 @@ pub fn arc_contrast(scores: &[PairScore]) -> Option<f64> {
 /// synthetic scenes, 12 uniform views at each of twelve placements (`docs/results.md`,
 /// "Session 77"): `lambertian`, `head` and `chair` 1.03 to 1.34; `mirror` and `mirror-broad`
 /// 3.30 to 6.87. 2 lies between, 1.49 times the highest of the first and 1.65 times below
-/// the lowest of the second. From 10, 14 or 16 views the matte scenes stay at 1.70 or less and the mirrors at 2.47 or more; from 8
-/// the ranges meet (the matte scenes up to 1.59, the mirrors from 1.64).
+/// the lowest of the second. From 10, 14 or 16 views the matte scenes stay at 1.70 or less
+/// and the mirrors at 2.47 or more; from 8 the ranges meet (the matte scenes up to 1.59, the
+/// mirrors from 1.64).
 pub const VIEW_DEPENDENT_CONTRAST: f64 = 2.0;
 
 /// Neighbouring pairs of views on the ring, by pan angle: `(i, j)` with `pans[i] < pans[j]`
