@@ -68,10 +68,15 @@ impl PairScore {
     /// consistent, 1 where none was. `None` when it compared none.
     pub fn compared_share(&self) -> Option<f64> {
         (self.compared_pixels > 0).then(|| {
-            (self.score - self.unexplained_pixels as f64).max(0.0) / self.compared_pixels as f64
+            let unexplained = self.unexplained_pixels as f64 * UNEXPLAINED_SCORE;
+            (self.score - unexplained).max(0.0) / self.compared_pixels as f64
         })
     }
 }
+
+/// What a foreground pixel the model does not explain adds to its pair's score: as much as
+/// the most inconsistent pixel compared. [`PairScore::compared_share`] takes it back out.
+const UNEXPLAINED_SCORE: f64 = 1.0;
 
 /// How far the worst arc stands out from the others: the largest
 /// [`PairScore::compared_share`] over the median one (the upper median of an even count).
@@ -267,7 +272,7 @@ fn check_against(
         if !d.is_finite() {
             for o in &mut out {
                 o.unexplained += 1;
-                o.score += 1.0;
+                o.score += UNEXPLAINED_SCORE;
                 o.map.put_pixel(x, y, image::Luma([255]));
             }
             continue;
