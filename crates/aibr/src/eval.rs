@@ -193,7 +193,8 @@ impl EvalModel {
 pub struct EvalParams {
     /// The capture: initial views, budget, refinement, capture grid.
     pub capture: CaptureParams,
-    /// View counts at which to measure (each at most the budget), e.g. 12, 24, 36, 48.
+    /// View counts at which to measure (each at most the budget, and with
+    /// [`Strategy::Active`] at least the initial count), e.g. 12, 24, 36, 48.
     pub checkpoints: Vec<usize>,
     /// Voxels along the longest edge of the models the novel views are rendered from.
     pub grid: usize,
@@ -405,6 +406,20 @@ pub fn evaluate_rig<R: EvalRig>(
             reason: format!(
                 "each must be between 3 and the budget {}",
                 params.capture.max
+            ),
+        });
+    }
+    // Active capture's first views are its initial uniform ones: fewer of them would be
+    // part of that set (the first few of its pans), not a capture of that many views.
+    let initial = params.capture.initial;
+    let below = params.checkpoints.iter().find(|&&c| c < initial);
+    if let (Some(&c), true) = (below, strategies.contains(&Strategy::Active)) {
+        return Err(Error::InvalidParameter {
+            name: "checkpoints",
+            reason: format!(
+                "{c} is below the initial {initial} views: active capture's first {initial} \
+                 views are its initial uniform ones, so each checkpoint must be at least \
+                 {initial} when active capture is evaluated"
             ),
         });
     }
@@ -885,6 +900,26 @@ mod tests {
         };
         assert_eq!(refused(&counts(1, 48)), "initial");
         assert_eq!(refused(&counts(12, 8)), "max");
+        // Active capture measured at fewer views than its initial ones would measure the
+        // first few of those.
+        let below_initial = EvalParams {
+            checkpoints: vec![7, 48],
+            ..EvalParams::default()
+        };
+        let active = evaluate(
+            "lambertian",
+            &[Strategy::Uniform, Strategy::Active],
+            &below_initial,
+            &work,
+            &mut |_| {},
+        );
+        match active {
+            Err(Error::InvalidParameter { name, reason }) => {
+                assert_eq!(name, "checkpoints");
+                assert!(reason.contains("7 is below the initial 12"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
         // The renderer's parameters before any view is captured.
         let mut render = RenderParams::default();
         if let Some(r) = render.refine.as_mut() {
