@@ -429,6 +429,20 @@ pub fn evaluate_rig<R: EvalRig>(
             reason: "the evaluation step must be positive".into(),
         });
     }
+    // A grid of one angle, the range's first, which the initial views capture: nothing
+    // would be left to measure (`measure` refuses any checkpoint that leaves nothing).
+    let span = rig.range().span();
+    if params.step.radians() > span.radians() {
+        return Err(Error::InvalidParameter {
+            name: "step",
+            reason: format!(
+                "{:.1} degrees is wider than the rig's pan range of {:.1} degrees: no angle \
+                 would be left to measure",
+                params.step.degrees(),
+                span.degrees()
+            ),
+        });
+    }
     // The renderer's parameters too, before any view is captured.
     params.render.validate()?;
     let geometry = match params.model {
@@ -647,6 +661,24 @@ fn measure<R: EvalRig>(
     }: Measure<'_>,
     truths: &mut TruthCache,
 ) -> Result<Checkpoint> {
+    let mut pans: Vec<Angle> = views
+        .iter()
+        .map(|v| Angle::from_radians(v.record.pan_rad))
+        .collect();
+    pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
+    // What is left to measure, before anything is reconstructed.
+    let novel_views = rig.novel_views(&pans, params.step)?;
+    if novel_views.is_empty() {
+        return Err(Error::InvalidParameter {
+            name: "step",
+            reason: format!(
+                "at {} views no uncaptured angle is left to measure (a synthetic rig's grid \
+                 is {:.1} degrees apart, a replay rig's is its recorded views)",
+                views.len(),
+                params.step.degrees()
+            ),
+        });
+    }
     let masks: Vec<_> = views
         .iter()
         .map(|v| {
@@ -684,13 +716,8 @@ fn measure<R: EvalRig>(
     };
     let score = reference.map(|r| geometry_score(&model, &r.exposed, &r.visible));
     let renderer = renderer_with_masks(views, &masks, &model, params.render)?;
-    let mut pans: Vec<Angle> = views
-        .iter()
-        .map(|v| Angle::from_radians(v.record.pan_rad))
-        .collect();
-    pans.sort_by(|a, b| a.radians().total_cmp(&b.radians()));
     let mut novel = Vec::new();
-    for (pan, camera) in rig.novel_views(&pans, params.step)? {
+    for (pan, camera) in novel_views {
         let (truth, mask) = match truths.entry(pan.radians().to_bits()) {
             Entry::Occupied(e) => e.into_mut(),
             Entry::Vacant(e) => e.insert(rig.truth(pan, &camera)?),
@@ -930,8 +957,51 @@ mod tests {
             ..EvalParams::default()
         };
         assert_eq!(refused(&bad_render), "refine.back_voxels");
+        // A grid of one angle, which the initial views capture.
+        let wide_step = EvalParams {
+            step: Angle::from_degrees(400.0),
+            ..EvalParams::default()
+        };
+        assert_eq!(refused(&wide_step), "step");
         // Nothing was made for a refused evaluation.
         assert!(!work.exists());
+    }
+
+    /// A grid whose every angle was captured leaves nothing to measure: refused, not
+    /// reported as figures of no views.
+    #[test]
+    fn a_checkpoint_with_nothing_left_to_measure_is_refused() -> Result<()> {
+        let work = std::env::temp_dir().join(format!("aibr-eval-nothing-{}", std::process::id()));
+        let span = SimRig::new("lambertian")?.range().span();
+        // Three angles, the range's ends and middle: the three uniform views capture them.
+        let params = EvalParams {
+            capture: CaptureParams {
+                initial: 3,
+                max: 3,
+                grid: 16,
+                ..CaptureParams::default()
+            },
+            checkpoints: vec![3],
+            grid: 16,
+            step: span * 0.5,
+            ..EvalParams::default()
+        };
+        let result = evaluate(
+            "lambertian",
+            &[Strategy::Uniform],
+            &params,
+            &work,
+            &mut |_| {},
+        );
+        let _ = std::fs::remove_dir_all(&work);
+        match result {
+            Err(Error::InvalidParameter { name, reason }) => {
+                assert_eq!(name, "step");
+                assert!(reason.contains("at 3 views"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+        Ok(())
     }
 
     #[test]
