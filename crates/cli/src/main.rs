@@ -688,6 +688,17 @@ fn parse_turns(text: &str) -> std::result::Result<Turns, String> {
             ));
         }
     };
+    // A placement twice would be captured into one folder and counted twice in the summary.
+    if let Some((i, t)) = turns
+        .iter()
+        .enumerate()
+        .find(|&(i, t)| turns[..i].contains(t))
+    {
+        return Err(format!(
+            "{text:?}: turn {t} is given twice (turn {})",
+            i + 1
+        ));
+    }
     Ok(Turns(turns))
 }
 
@@ -2111,5 +2122,6 @@ mod tests {
         assert!(error("10:0:5").contains("TO at least FROM"));
         assert!(error("0:10:0").contains("STEP must be positive"));
         assert!(error("0:360:0.5").contains("more than 360"));
+        assert!(error("0,10,0").contains("turn 0 is given twice (turn 3)"));
     }
 }
