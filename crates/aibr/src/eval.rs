@@ -193,7 +193,7 @@ impl EvalModel {
 pub struct EvalParams {
     /// The capture: initial views, budget, refinement, capture grid.
     pub capture: CaptureParams,
-    /// View counts at which to measure (each at most the budget, and with
+    /// View counts at which to measure, increasing (each at most the budget, and with
     /// [`Strategy::Active`] at least the initial count), e.g. 12, 24, 36, 48.
     pub checkpoints: Vec<usize>,
     /// Voxels along the longest edge of the models the novel views are rendered from.
@@ -407,6 +407,19 @@ pub fn evaluate_rig<R: EvalRig>(
                 "each must be between 3 and the budget {}",
                 params.capture.max
             ),
+        });
+    }
+    // Each set measured once, in the order the report gives them.
+    if let Some(w) = params.checkpoints.windows(2).find(|w| w[1] <= w[0]) {
+        return Err(Error::InvalidParameter {
+            name: "checkpoints",
+            reason: format!("they must increase, not {} then {}", w[0], w[1]),
+        });
+    }
+    if params.checkpoints.is_empty() {
+        return Err(Error::InvalidParameter {
+            name: "checkpoints",
+            reason: "none given: nothing would be measured".into(),
         });
     }
     // Active capture's first views are its initial uniform ones: fewer of them would be
@@ -927,6 +940,14 @@ mod tests {
         };
         assert_eq!(refused(&counts(1, 48)), "initial");
         assert_eq!(refused(&counts(12, 8)), "max");
+        // Each set once, in order; and at least one.
+        for checkpoints in [vec![12, 24, 24], vec![24, 12], vec![]] {
+            let params = EvalParams {
+                checkpoints,
+                ..EvalParams::default()
+            };
+            assert_eq!(refused(&params), "checkpoints");
+        }
         // Active capture measured at fewer views than its initial ones would measure the
         // first few of those.
         let below_initial = EvalParams {

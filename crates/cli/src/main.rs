@@ -400,8 +400,9 @@ struct EvalArgs {
         default_value = "active,uniform"
     )]
     strategy: Vec<StrategyArg>,
-    /// View counts to measure at (default: the initial count, then every 12 up to the
-    /// budget); each at most the budget and, with active capture, at least the initial count.
+    /// View counts to measure at, increasing (default: the initial count, then every 12 up to
+    /// the budget); each at most the budget and, with active capture, at least the initial
+    /// count.
     #[arg(long, value_delimiter = ',')]
     checkpoints: Vec<usize>,
     /// Voxels along the longest edge of the models rendered from.
