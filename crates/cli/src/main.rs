@@ -83,23 +83,23 @@ struct CaptureArgs {
     /// The rig's calibration for a real camera: JSON in the form of session.json's
     /// "calibration" record (intrinsics, distortion, size, pan axis, pose at pan 0), as
     /// `aibr calibrate turntable` writes it.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", requires = "camera")]
     calibration: Option<PathBuf>,
     /// Webcam: fresh frames averaged per view (after the turntable stopped).
-    #[arg(long, default_value_t = 1, value_name = "K")]
+    #[arg(long, default_value_t = 1, value_name = "K", requires = "camera")]
     average: u32,
     /// Webcam exposure: lock (turn automatic exposure off at the current value), auto, or a
     /// value in the device's units (100 µs for exposure_absolute).
-    #[arg(long, default_value = "lock")]
+    #[arg(long, default_value = "lock", requires = "camera")]
     exposure: String,
     /// Webcam white balance: lock, auto, or a temperature in kelvin.
-    #[arg(long, default_value = "lock")]
+    #[arg(long, default_value = "lock", requires = "camera")]
     white_balance: String,
     /// Webcam gain: lock, auto, or a value.
-    #[arg(long, default_value = "lock")]
+    #[arg(long, default_value = "lock", requires = "camera")]
     gain: String,
     /// The turntable's serial speed.
-    #[arg(long, default_value_t = 9600)]
+    #[arg(long, default_value_t = 9600, requires = "turntable")]
     baud: u32,
     /// Views captured uniformly over the pan range first.
     #[arg(long, default_value_t = 12)]
@@ -1088,6 +1088,12 @@ fn capture(a: CaptureArgs) -> Result<()> {
             let spec = format!("{t}+{c}");
             if let Some(device) = c.strip_prefix("v4l:") {
                 return capture_webcam(a, &spec, port, device);
+            }
+            if a.calibration.is_some() {
+                bail!(
+                    "--calibration is for a webcam (--camera v4l:DEVICE): --camera {c:?} renders \
+                     its scene with the scene's own calibration"
+                );
             }
             let turntable = aibr::PtuTurntable::new(open_ptu(port, a.baud)?)?;
             let camera = aibr::SceneCamera::from_spec(&c, aibr::Turntable::step(&turntable))

@@ -188,6 +188,46 @@ fn bad_ports_and_specs_are_named() -> TestResult {
     Ok(())
 }
 
+/// Options of a real rig are refused where nothing would use them, rather than ignored: a
+/// calibration given with a synthetic camera would not be the one the session records.
+#[test]
+fn real_rig_options_are_refused_where_nothing_uses_them() -> TestResult {
+    let out_dir = temp("unused-options");
+    let refused = |options: &[&str]| -> Result<String, std::io::Error> {
+        let out = aibr()
+            .args(["capture", "--max", "12", "--out"])
+            .arg(&out_dir)
+            .args(options)
+            .output()?;
+        assert!(!out.status.success(), "{options:?} accepted");
+        Ok(String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    // Without a real turntable and camera: the synthetic rig.
+    for option in [
+        ["--calibration", "rig.json"],
+        ["--average", "4"],
+        ["--exposure", "auto"],
+        ["--white-balance", "5000"],
+        ["--gain", "auto"],
+    ] {
+        let err = refused(&option)?;
+        assert!(err.contains("--camera"), "{option:?}: {err}");
+    }
+    assert!(refused(&["--baud", "19200"])?.contains("--turntable"));
+    // With a synthetic camera on a real turntable (refused before the port is opened).
+    let err = refused(&[
+        "--turntable",
+        "ptu:/dev/aibr-no-such-port",
+        "--camera",
+        "sim:mirror",
+        "--calibration",
+        "rig.json",
+    ])?;
+    assert!(err.contains("--calibration is for a webcam"), "{err}");
+    assert!(!out_dir.exists());
+    Ok(())
+}
+
 #[test]
 fn webcams_need_a_calibration_and_name_the_device() -> TestResult {
     let dir = temp("v4l");
