@@ -80,9 +80,9 @@ struct CaptureArgs {
     /// with the v4l feature).
     #[arg(long, value_name = "sim:SCENE|v4l:DEVICE", requires = "turntable")]
     camera: Option<String>,
-    /// The rig's calibration for a real camera: JSON in the form of session.json's
-    /// "calibration" record (intrinsics, distortion, size, pan axis, pose at pan 0), as
-    /// `aibr calibrate turntable` writes it.
+    /// The rig's calibration for a webcam (--camera v4l:DEVICE): JSON in the form of
+    /// session.json's "calibration" record (intrinsics, distortion, size, pan axis, pose at
+    /// pan 0), as `aibr calibrate turntable` writes it.
     #[arg(long, value_name = "FILE", requires = "camera")]
     calibration: Option<PathBuf>,
     /// Webcam: fresh frames averaged per view (after the turntable stopped).
@@ -98,7 +98,7 @@ struct CaptureArgs {
     /// Webcam gain: lock, auto, or a value.
     #[arg(long, default_value = "lock", requires = "camera")]
     gain: String,
-    /// The turntable's serial speed.
+    /// The PTU-46's serial speed (with --turntable).
     #[arg(long, default_value_t = 9600, requires = "turntable")]
     baud: u32,
     /// Views captured uniformly over the pan range first.
