@@ -609,7 +609,7 @@ struct RenderArgs {
     /// Render at the model's surface, without the depth refinement: about a quarter less time
     /// a frame, but blurrier texture (1-1.7 dB lower masked PSNR on the catalogue's textured
     /// objects at 24 views). For quick looks and long sweeps.
-    #[arg(long, conflicts_with_all = ["reach", "refine_steps", "reach_penalty"])]
+    #[arg(long, conflicts_with_all = ["reach", "refine_steps", "reach_penalty", "refine_pair"])]
     no_refine: bool,
     #[command(flatten)]
     refine: RefineArgs,

@@ -347,6 +347,10 @@ fn reconstruct_and_render_a_session() -> TestResult {
             &["--reach-penalty", "0.3", "--no-refine"],
             "--reach-penalty",
         ),
+        (
+            &["--refine-pair", "nearest", "--no-refine"],
+            "--refine-pair",
+        ),
     ] {
         let out = render(&[&view[..], bad].concat(), &refused_reach)?;
         assert!(!out.status.success(), "{bad:?} was accepted");
