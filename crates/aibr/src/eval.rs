@@ -382,6 +382,35 @@ pub fn evaluate(
     )
 }
 
+/// What is wrong with `params.checkpoints` for evaluating `strategies`, if anything: each
+/// must lie between 3 and the budget, they must increase (each set measured once, in the
+/// order the report gives them), at least one is needed, and with active capture none may
+/// be below the initial count (its first views are the initial uniform ones, so fewer would
+/// be part of that set, the first few of its pans, not a capture of that many views).
+fn checkpoints_fault(params: &EvalParams, strategies: &[Strategy]) -> Option<String> {
+    let (checkpoints, max) = (&params.checkpoints, params.capture.max);
+    if checkpoints.iter().any(|&c| c > max || c < 3) {
+        return Some(format!("each must be between 3 and the budget {max}"));
+    }
+    if let Some(w) = checkpoints.windows(2).find(|w| w[1] <= w[0]) {
+        return Some(format!("they must increase, not {} then {}", w[0], w[1]));
+    }
+    if checkpoints.is_empty() {
+        return Some("none given: nothing would be measured".into());
+    }
+    let initial = params.capture.initial;
+    if strategies.contains(&Strategy::Active) {
+        if let Some(c) = checkpoints.iter().find(|&&c| c < initial) {
+            return Some(format!(
+                "{c} is below the initial {initial} views: active capture's first {initial} \
+                 views are its initial uniform ones, so each checkpoint must be at least \
+                 {initial} when active capture is evaluated"
+            ));
+        }
+    }
+    None
+}
+
 /// [`evaluate`] on any rig that knows its truth: `name` names its sessions under
 /// `work_dir`, `spec` is recorded in them.
 pub fn evaluate_rig<R: EvalRig>(
@@ -396,44 +425,10 @@ pub fn evaluate_rig<R: EvalRig>(
     // The counts first: a bad initial count or budget is named as such, not as a checkpoint
     // out of range.
     params.capture.validate()?;
-    if params
-        .checkpoints
-        .iter()
-        .any(|&c| c > params.capture.max || c < 3)
-    {
+    if let Some(reason) = checkpoints_fault(params, strategies) {
         return Err(Error::InvalidParameter {
             name: "checkpoints",
-            reason: format!(
-                "each must be between 3 and the budget {}",
-                params.capture.max
-            ),
-        });
-    }
-    // Each set measured once, in the order the report gives them.
-    if let Some(w) = params.checkpoints.windows(2).find(|w| w[1] <= w[0]) {
-        return Err(Error::InvalidParameter {
-            name: "checkpoints",
-            reason: format!("they must increase, not {} then {}", w[0], w[1]),
-        });
-    }
-    if params.checkpoints.is_empty() {
-        return Err(Error::InvalidParameter {
-            name: "checkpoints",
-            reason: "none given: nothing would be measured".into(),
-        });
-    }
-    // Active capture's first views are its initial uniform ones: fewer of them would be
-    // part of that set (the first few of its pans), not a capture of that many views.
-    let initial = params.capture.initial;
-    let below = params.checkpoints.iter().find(|&&c| c < initial);
-    if let (Some(&c), true) = (below, strategies.contains(&Strategy::Active)) {
-        return Err(Error::InvalidParameter {
-            name: "checkpoints",
-            reason: format!(
-                "{c} is below the initial {initial} views: active capture's first {initial} \
-                 views are its initial uniform ones, so each checkpoint must be at least \
-                 {initial} when active capture is evaluated"
-            ),
+            reason,
         });
     }
     if !(params.step.radians() > 0.0) {
