@@ -85,19 +85,19 @@ struct CaptureArgs {
     /// pan 0), as `aibr calibrate turntable` writes it.
     #[arg(long, value_name = "FILE", requires = "camera")]
     calibration: Option<PathBuf>,
-    /// Webcam: fresh frames averaged per view (after the turntable stopped).
-    #[arg(long, default_value_t = 1, value_name = "K", requires = "camera")]
-    average: u32,
+    /// Webcam: fresh frames averaged per view (after the turntable stopped) [default: 1].
+    #[arg(long, value_name = "K", requires = "camera")]
+    average: Option<u32>,
     /// Webcam exposure: lock (turn automatic exposure off at the current value), auto, or a
-    /// value in the device's units (100 µs for exposure_absolute).
-    #[arg(long, default_value = "lock", requires = "camera")]
-    exposure: String,
-    /// Webcam white balance: lock, auto, or a temperature in kelvin.
-    #[arg(long, default_value = "lock", requires = "camera")]
-    white_balance: String,
-    /// Webcam gain: lock, auto, or a value.
-    #[arg(long, default_value = "lock", requires = "camera")]
-    gain: String,
+    /// value in the device's units (100 µs for exposure_absolute) [default: lock].
+    #[arg(long, value_name = "SETTING", requires = "camera")]
+    exposure: Option<String>,
+    /// Webcam white balance: lock, auto, or a temperature in kelvin [default: lock].
+    #[arg(long, value_name = "SETTING", requires = "camera")]
+    white_balance: Option<String>,
+    /// Webcam gain: lock, auto, or a value [default: lock].
+    #[arg(long, value_name = "SETTING", requires = "camera")]
+    gain: Option<String>,
     /// The PTU-46's serial speed (with --turntable).
     #[arg(long, default_value_t = 9600, requires = "turntable")]
     baud: u32,
@@ -1089,10 +1089,10 @@ fn capture(a: CaptureArgs) -> Result<()> {
             if let Some(device) = c.strip_prefix("v4l:") {
                 return capture_webcam(a, &spec, port, device);
             }
-            if a.calibration.is_some() {
+            if let Some(option) = webcam_option_given(&a) {
                 bail!(
-                    "--calibration is for a webcam (--camera v4l:DEVICE): --camera {c:?} renders \
-                     its scene with the scene's own calibration"
+                    "{option} is for a webcam (--camera v4l:DEVICE): --camera {c:?} renders its \
+                     scene with the scene's own calibration and nothing to average or adjust"
                 );
             }
             let turntable = aibr::PtuTurntable::new(open_ptu(port, a.baud)?)?;
@@ -1119,6 +1119,20 @@ fn capture(a: CaptureArgs) -> Result<()> {
     }
 }
 
+/// The first webcam option given (`--calibration`, `--average` and the controls), which a
+/// synthetic camera would leave unused.
+fn webcam_option_given(a: &CaptureArgs) -> Option<&'static str> {
+    [
+        (a.calibration.is_some(), "--calibration"),
+        (a.average.is_some(), "--average"),
+        (a.exposure.is_some(), "--exposure"),
+        (a.white_balance.is_some(), "--white-balance"),
+        (a.gain.is_some(), "--gain"),
+    ]
+    .into_iter()
+    .find_map(|(given, option)| given.then_some(option))
+}
+
 /// Reads a calibration in the form of session.json's "calibration" record.
 #[cfg_attr(not(feature = "v4l"), allow(dead_code))]
 fn read_calibration(path: &Path) -> Result<aibr::Calibration> {
@@ -1132,9 +1146,9 @@ fn read_calibration(path: &Path) -> Result<aibr::Calibration> {
 }
 
 #[cfg(feature = "v4l")]
-fn control_setting(name: &str, value: &str) -> Result<aibr::v4l::device::ControlSetting> {
+fn control_setting(name: &str, value: Option<&str>) -> Result<aibr::v4l::device::ControlSetting> {
     use aibr::v4l::device::ControlSetting;
-    Ok(match value {
+    Ok(match value.unwrap_or("lock") {
         "lock" => ControlSetting::Lock,
         "auto" => ControlSetting::Auto,
         v => ControlSetting::Manual(
@@ -1151,18 +1165,20 @@ fn capture_webcam(a: CaptureArgs, spec: &str, port: &str, device: &str) -> Resul
             "--camera v4l:{device} needs --calibration FILE (the webcam's intrinsics and the pan axis)"
         );
     };
-    if a.average == 0 {
+    let frames = a.average.unwrap_or(1);
+    if frames == 0 {
         bail!("--average 0: at least one frame");
     }
     let mut calibration = read_calibration(&path)?;
+    let setting = |name, value: &Option<String>| control_setting(name, value.as_deref());
     let options = aibr::v4l::device::WebcamOptions {
-        exposure: control_setting("exposure", &a.exposure)?,
-        white_balance: control_setting("white-balance", &a.white_balance)?,
-        gain: control_setting("gain", &a.gain)?,
+        exposure: setting("exposure", &a.exposure)?,
+        white_balance: setting("white-balance", &a.white_balance)?,
+        gain: setting("gain", &a.gain)?,
         ..Default::default()
     };
     let policy = aibr::v4l::SettlePolicy {
-        frames: a.average,
+        frames,
         ..Default::default()
     };
     let camera = aibr::V4lCamera::open(Path::new(device), &calibration.camera, options, policy)?;

@@ -215,15 +215,23 @@ fn real_rig_options_are_refused_where_nothing_uses_them() -> TestResult {
     }
     assert!(refused(&["--baud", "19200"])?.contains("--turntable"));
     // With a synthetic camera on a real turntable (refused before the port is opened).
-    let err = refused(&[
-        "--turntable",
-        "ptu:/dev/aibr-no-such-port",
-        "--camera",
-        "sim:mirror",
-        "--calibration",
-        "rig.json",
-    ])?;
-    assert!(err.contains("--calibration is for a webcam"), "{err}");
+    for [option, value] in [
+        ["--calibration", "rig.json"],
+        ["--average", "4"],
+        ["--exposure", "auto"],
+        ["--white-balance", "lock"],
+        ["--gain", "lock"],
+    ] {
+        let err = refused(&[
+            "--turntable",
+            "ptu:/dev/aibr-no-such-port",
+            "--camera",
+            "sim:mirror",
+            option,
+            value,
+        ])?;
+        assert!(err.contains(&format!("{option} is for a webcam")), "{err}");
+    }
     assert!(!out_dir.exists());
     Ok(())
 }
