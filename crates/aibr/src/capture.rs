@@ -183,16 +183,21 @@ impl Default for CaptureParams {
 }
 
 impl CaptureParams {
-    /// Checks the counts.
+    /// Checks the counts. Uniform capture takes its whole budget evenly, so there the budget
+    /// must be at least 3 views and the initial count is not asked.
     pub fn validate(&self) -> Result<()> {
         let bad = |name, reason: String| Err(Error::InvalidParameter { name, reason });
-        if self.initial < 3 {
+        let (name, start) = match self.strategy {
+            Strategy::Active => ("initial", self.initial),
+            Strategy::Uniform => ("max", self.max),
+        };
+        if start < 3 {
             return bad(
-                "initial",
-                format!("at least 3 views are needed to start, not {}", self.initial),
+                name,
+                format!("at least 3 views are needed to start, not {start}"),
             );
         }
-        if self.max < self.initial {
+        if self.strategy == Strategy::Active && self.max < self.initial {
             return bad(
                 "max",
                 format!(
@@ -866,5 +871,15 @@ mod tests {
             "invalid grid: must be between 8 and 512 voxels, not 600"
         );
         assert!(CaptureParams::default().validate().is_ok());
+        // Uniform capture takes its budget evenly: the initial count is not asked.
+        let uniform = |max| CaptureParams {
+            strategy: Strategy::Uniform,
+            ..counts(12, max)
+        };
+        assert!(uniform(6).validate().is_ok());
+        assert_eq!(
+            refusal(uniform(2)),
+            "invalid max: at least 3 views are needed to start, not 2"
+        );
     }
 }

@@ -122,11 +122,12 @@ impl ParametersRecord {
         1.0
     }
 
-    /// The planner's fields as they bore on the views: as recorded for active capture, and
-    /// `unused` where no planner chose the views (uniform capture), or for the face tolerance
+    /// The active loop's fields as they bore on the views: as recorded for active capture,
+    /// and `unused` where no planner chose the views (uniform capture, which captures its
+    /// whole budget evenly and reconstructs nothing on the way), or for the face tolerance
     /// where faces were not served first. A session may be resumed with any value of an
     /// unused field.
-    fn planner_as_used(&self) -> [(&'static str, String); 5] {
+    fn active_as_used(&self) -> [(&'static str, String); 8] {
         let active = self.strategy == crate::Strategy::Active.name();
         let shown = |used: bool, value: &dyn ToString| {
             if used {
@@ -136,6 +137,9 @@ impl ParametersRecord {
             }
         };
         [
+            ("initial", shown(active, &self.initial)),
+            ("refine_every", shown(active, &self.refine_every)),
+            ("grid", shown(active, &self.grid)),
             ("consistent_below", shown(active, &self.consistent_below)),
             ("width_power", shown(active, &self.width_power)),
             ("aim_reach", shown(active, &self.aim_reach)),
@@ -457,33 +461,23 @@ impl Session {
 
     /// Refuses to continue this session on `rig` with `params` unless they are what it was
     /// captured with: views planned under other parameters would be mixed with new ones.
-    /// The planner's fields count only where a planner chose the views: not for uniform
-    /// capture, and the face tolerance only with faces served first. The error names the
-    /// first field that differs.
+    /// The active loop's fields (the initial count, how often it reconstructs, its grid and
+    /// the planner's) count only where a planner chose the views: not for uniform capture,
+    /// and the face tolerance only with faces served first. The error names the first field
+    /// that differs.
     pub fn check_parameters(&self, rig: &str, params: &crate::CaptureParams) -> Result<()> {
         let (file, given) = (self.file(), ParametersRecord::of(params));
         let have = &file.parameters;
         let mut fields = [
             ("rig", file.rig.clone(), rig.to_owned()),
             ("strategy", have.strategy.clone(), given.strategy.clone()),
-            (
-                "initial",
-                have.initial.to_string(),
-                given.initial.to_string(),
-            ),
             ("max", have.max.to_string(), given.max.to_string()),
-            (
-                "refine_every",
-                have.refine_every.to_string(),
-                given.refine_every.to_string(),
-            ),
-            ("grid", have.grid.to_string(), given.grid.to_string()),
         ]
         .into_iter()
         .chain(
-            have.planner_as_used()
+            have.active_as_used()
                 .into_iter()
-                .zip(given.planner_as_used())
+                .zip(given.active_as_used())
                 .map(|((field, recorded), (_, given))| (field, recorded, given)),
         );
         match fields.find(|(_, recorded, given)| recorded != given) {
@@ -878,8 +872,8 @@ mod tests {
                 ..params
             },
         )?;
-        // Uniform capture: no planner chose its views, so none of its fields count; the budget
-        // still does.
+        // Uniform capture: no planner chose its views and nothing was reconstructed on the way,
+        // so none of the active loop's fields count; the budget still does.
         let session = rewrite(&|p| {
             p.insert("strategy".into(), "uniform".into());
         })?;
@@ -888,6 +882,9 @@ mod tests {
             ..params
         };
         let replanned = crate::CaptureParams {
+            initial: 6,
+            refine_every: 4,
+            grid: 64,
             width_power: 1.0,
             aim_reach: 0.0,
             faces_first: crate::FacesFirst::On,
