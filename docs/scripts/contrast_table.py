@@ -5,7 +5,7 @@
 
 For each K, each scene and each of issue 7's twelve placements (turns 0, 2.5, ..., 27.5), it
 captures K uniform views into WORK/SCENE@TURN-K (kept, and reused when there) with
-`aibr capture --strategy uniform --initial K --max K`, scores them with the example
+`aibr capture --strategy uniform --max K`, scores them with the example
 `arc_contrast` (the arcs' contrast, `aibr::consistency::arc_contrast`, from a 96^3 model as
 the capture loop makes it; and the same with each arc's compared share divided by its width),
 and prints per scene the range and median over the placements and at how many `auto` serves
@@ -32,7 +32,7 @@ def contrasts(aibr, example, work, scene, turn, k):
     if not os.path.exists(os.path.join(session, "session.json")):
         subprocess.run(
             [aibr, "capture", "--rig", f"sim:{scene}@{turn}", "--strategy", "uniform",
-             "--initial", str(k), "--max", str(k), "--out", session],
+             "--max", str(k), "--out", session],
             check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     out = subprocess.run([example, session], check=True, capture_output=True, text=True).stdout
     row = [cell.strip() for cell in out.splitlines()[1].split("|")]

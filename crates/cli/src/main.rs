@@ -10,7 +10,7 @@ use anyhow::{Context, Result, bail};
 mod calibrate;
 mod demo;
 mod reporter;
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{ArgMatches, CommandFactory, FromArgMatches, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Active image-based rendering on a turntable.
@@ -19,7 +19,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// views, reconstructs the object, estimates where a rendering would be worst, turns the
 /// object there, captures one more view, and repeats until the budget. The built-in
 /// synthetic rig (`--rig sim:SCENE`) needs no hardware.
-#[derive(Parser)]
+#[derive(clap::Parser)]
 #[command(name = "aibr", version, about, long_about)]
 struct Cli {
     #[command(subcommand)]
@@ -101,10 +101,10 @@ struct CaptureArgs {
     /// The PTU-46's serial speed (with --turntable).
     #[arg(long, default_value_t = 9600, requires = "turntable")]
     baud: u32,
-    /// Views captured uniformly over the pan range first.
+    /// Views captured uniformly over the pan range first (active capture).
     #[arg(long, default_value_t = 12)]
     initial: usize,
-    /// The budget of views.
+    /// The budget of views (uniform capture takes them all evenly over the pan range).
     #[arg(long, default_value_t = 48)]
     max: usize,
     /// How views beyond the initial ones are chosen.
@@ -818,11 +818,30 @@ enum SceneCommand {
 }
 
 fn main() {
-    if let Err(e) = run(Cli::parse()) {
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let Err(e) = run(cli, &matches) {
         eprintln!("error: {}", report(&e));
         std::process::exit(1);
     }
 }
+
+/// Which of a subcommand's options were given on the command line rather than left at their
+/// defaults, so that a run can refuse those it would leave unused.
+struct Given<'a>(Option<&'a ArgMatches>);
+
+impl Given<'_> {
+    /// The first of `ids` (the options' field names) given, spelt as on the command line.
+    fn first(&self, ids: &[&str]) -> Option<String> {
+        let matches = self.0?;
+        ids.iter()
+            .find(|id| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
+            .map(|id| format!("--{}", id.replace('_', "-")))
+    }
+}
+
+/// The options of the active planner ([`PlanArgs`]) by their field names.
+const PLANNER_OPTIONS: [&str; 4] = ["width_power", "aim_reach", "faces_first", "face_served_deg"];
 
 /// The error and its causes on one line, `: ` between them. The library's errors name their
 /// cause in their own message (so that it shows wherever they are printed) and also give it
@@ -843,13 +862,14 @@ fn report(e: &anyhow::Error) -> String {
     line
 }
 
-fn run(cli: Cli) -> Result<()> {
+fn run(cli: Cli, matches: &ArgMatches) -> Result<()> {
+    let given = Given(matches.subcommand().map(|(_, m)| m));
     match cli.command {
         Command::Demo(a) => demo::run(a).map(drop),
-        Command::Capture(a) => capture(a),
+        Command::Capture(a) => capture(a, &given),
         Command::Reconstruct(a) => reconstruct(a),
         Command::Render(a) => render(a),
-        Command::Eval(a) => eval(a),
+        Command::Eval(a) => eval(a, &given),
         Command::Ptu(a) => ptu(a),
         Command::V4l { command } => v4l(command),
         Command::Calibrate { command } => calibrate::run(command),
@@ -1079,7 +1099,16 @@ fn exr(path: &Path, depth: &aibr::voxel::DepthMap) -> Result<()> {
     write_atomic(path, &out.into_inner()).with_context(|| format!("writing {}", path.display()))
 }
 
-fn capture(a: CaptureArgs) -> Result<()> {
+fn capture(a: CaptureArgs, given: &Given<'_>) -> Result<()> {
+    if a.strategy == StrategyArg::Uniform {
+        let active_only = ["initial", "refine_every", "grid", "consistent_below"];
+        if let Some(option) = given.first(&[&active_only[..], &PLANNER_OPTIONS[..]].concat()) {
+            bail!(
+                "{option} steers active capture; --strategy uniform captures --max views evenly \
+                 over the pan range and reconstructs nothing while capturing"
+            );
+        }
+    }
     match (a.turntable.clone(), a.camera.clone()) {
         (Some(t), Some(c)) => {
             let Some(port) = t.strip_prefix("ptu:") else {
@@ -1434,7 +1463,12 @@ fn eval_model(m: ModelArg) -> EvalModel {
     }
 }
 
-fn eval(a: EvalArgs) -> Result<()> {
+fn eval(a: EvalArgs, given: &Given<'_>) -> Result<()> {
+    if !a.strategy.contains(&StrategyArg::Active) {
+        if let Some(option) = given.first(&[&["capture_grid"][..], &PLANNER_OPTIONS[..]].concat()) {
+            bail!("{option} steers active capture, and --strategy evaluates uniform capture only");
+        }
+    }
     if let Some(turns) = &a.turns {
         return eval_turns(&a, &turns.0);
     }

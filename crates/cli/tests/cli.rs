@@ -562,6 +562,62 @@ fn bad_sessions_are_refused_and_left_alone() -> TestResult {
 }
 
 #[test]
+fn active_capture_options_are_refused_with_uniform_capture_alone() -> TestResult {
+    let dir = temp("uniform-options");
+    let active_only = [
+        ["--initial", "6"],
+        ["--refine-every", "2"],
+        ["--grid", "64"],
+        ["--consistent-below", "1"],
+        ["--width-power", "2"],
+        ["--aim-reach", "0"],
+        ["--faces-first", "true"],
+        ["--face-served-deg", "2"],
+    ];
+    for [option, value] in active_only {
+        let out = aibr()
+            .args([
+                "capture",
+                "--strategy",
+                "uniform",
+                "--max",
+                "4",
+                option,
+                value,
+                "--out",
+            ])
+            .arg(&dir)
+            .output()?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{option} accepted");
+        assert!(
+            err.contains(&format!("{option} steers active capture")),
+            "{err}"
+        );
+    }
+    for [option, value] in [["--capture-grid", "64"], ["--width-power", "2"]] {
+        let out = aibr()
+            .args(["eval", "--strategy", "uniform", option, value, "--work"])
+            .arg(&dir)
+            .output()?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{option} accepted");
+        assert!(
+            err.contains(&format!("{option} steers active capture")),
+            "{err}"
+        );
+    }
+    assert!(!dir.exists());
+    // A uniform budget below the default initial count needs no --initial.
+    capture_ok(
+        &["--rig", "sim:head", "--strategy", "uniform", "--max", "4"],
+        &dir,
+    )?;
+    assert_eq!(count_views(&dir), 4);
+    Ok(())
+}
+
+#[test]
 fn scene_render_writes_image_depth_and_mask() -> TestResult {
     let dir = temp("scene");
     std::fs::create_dir_all(&dir)?;
