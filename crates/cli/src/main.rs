@@ -85,19 +85,19 @@ struct CaptureArgs {
     /// pan 0), as `aibr calibrate turntable` writes it.
     #[arg(long, value_name = "FILE", requires = "camera")]
     calibration: Option<PathBuf>,
-    /// Webcam: fresh frames averaged per view (after the turntable stopped) [default: 1].
-    #[arg(long, value_name = "K", requires = "camera")]
-    average: Option<u32>,
+    /// Webcam: fresh frames averaged per view (after the turntable stopped).
+    #[arg(long, default_value_t = 1, value_name = "K", requires = "camera")]
+    average: u32,
     /// Webcam exposure: lock (turn automatic exposure off at the current value), auto, or a
-    /// value in the device's units (100 µs for exposure_absolute) [default: lock].
-    #[arg(long, value_name = "SETTING", requires = "camera")]
-    exposure: Option<String>,
-    /// Webcam white balance: lock, auto, or a temperature in kelvin [default: lock].
-    #[arg(long, value_name = "SETTING", requires = "camera")]
-    white_balance: Option<String>,
-    /// Webcam gain: lock, auto, or a value [default: lock].
-    #[arg(long, value_name = "SETTING", requires = "camera")]
-    gain: Option<String>,
+    /// value in the device's units (100 µs for exposure_absolute).
+    #[arg(long, default_value = "lock", requires = "camera")]
+    exposure: String,
+    /// Webcam white balance: lock, auto, or a temperature in kelvin.
+    #[arg(long, default_value = "lock", requires = "camera")]
+    white_balance: String,
+    /// Webcam gain: lock, auto, or a value.
+    #[arg(long, default_value = "lock", requires = "camera")]
+    gain: String,
     /// The PTU-46's serial speed (with --turntable).
     #[arg(long, default_value_t = 9600, requires = "turntable")]
     baud: u32,
@@ -840,6 +840,16 @@ impl Given<'_> {
     }
 }
 
+/// The options of a webcam capture (a synthetic camera uses none of them) by their field
+/// names.
+const WEBCAM_OPTIONS: [&str; 5] = [
+    "calibration",
+    "average",
+    "exposure",
+    "white_balance",
+    "gain",
+];
+
 /// The options of the active planner ([`PlanArgs`]) by their field names.
 const PLANNER_OPTIONS: [&str; 4] = ["width_power", "aim_reach", "faces_first", "face_served_deg"];
 
@@ -1101,8 +1111,11 @@ fn exr(path: &Path, depth: &aibr::voxel::DepthMap) -> Result<()> {
 
 fn capture(a: CaptureArgs, given: &Given<'_>) -> Result<()> {
     if a.strategy == StrategyArg::Uniform {
-        let active_only = ["initial", "refine_every", "grid", "consistent_below"];
-        if let Some(option) = given.first(&[&active_only[..], &PLANNER_OPTIONS[..]].concat()) {
+        let active_loop = ["initial", "refine_every", "grid", "consistent_below"];
+        if let Some(option) = given
+            .first(&active_loop)
+            .or_else(|| given.first(&PLANNER_OPTIONS))
+        {
             bail!(
                 "{option} steers active capture; --strategy uniform captures --max views evenly \
                  over the pan range and reconstructs nothing while capturing"
@@ -1118,7 +1131,7 @@ fn capture(a: CaptureArgs, given: &Given<'_>) -> Result<()> {
             if let Some(device) = c.strip_prefix("v4l:") {
                 return capture_webcam(a, &spec, port, device);
             }
-            if let Some(option) = webcam_option_given(&a) {
+            if let Some(option) = given.first(&WEBCAM_OPTIONS) {
                 bail!(
                     "{option} is for a webcam (--camera v4l:DEVICE): --camera {c:?} renders its \
                      scene with the scene's own calibration and nothing to average or adjust"
@@ -1148,20 +1161,6 @@ fn capture(a: CaptureArgs, given: &Given<'_>) -> Result<()> {
     }
 }
 
-/// The first webcam option given (`--calibration`, `--average` and the controls), which a
-/// synthetic camera would leave unused.
-fn webcam_option_given(a: &CaptureArgs) -> Option<&'static str> {
-    [
-        (a.calibration.is_some(), "--calibration"),
-        (a.average.is_some(), "--average"),
-        (a.exposure.is_some(), "--exposure"),
-        (a.white_balance.is_some(), "--white-balance"),
-        (a.gain.is_some(), "--gain"),
-    ]
-    .into_iter()
-    .find_map(|(given, option)| given.then_some(option))
-}
-
 /// Reads a calibration in the form of session.json's "calibration" record.
 #[cfg_attr(not(feature = "v4l"), allow(dead_code))]
 fn read_calibration(path: &Path) -> Result<aibr::Calibration> {
@@ -1175,9 +1174,9 @@ fn read_calibration(path: &Path) -> Result<aibr::Calibration> {
 }
 
 #[cfg(feature = "v4l")]
-fn control_setting(name: &str, value: Option<&str>) -> Result<aibr::v4l::device::ControlSetting> {
+fn control_setting(name: &str, value: &str) -> Result<aibr::v4l::device::ControlSetting> {
     use aibr::v4l::device::ControlSetting;
-    Ok(match value.unwrap_or("lock") {
+    Ok(match value {
         "lock" => ControlSetting::Lock,
         "auto" => ControlSetting::Auto,
         v => ControlSetting::Manual(
@@ -1194,20 +1193,18 @@ fn capture_webcam(a: CaptureArgs, spec: &str, port: &str, device: &str) -> Resul
             "--camera v4l:{device} needs --calibration FILE (the webcam's intrinsics and the pan axis)"
         );
     };
-    let frames = a.average.unwrap_or(1);
-    if frames == 0 {
+    if a.average == 0 {
         bail!("--average 0: at least one frame");
     }
     let mut calibration = read_calibration(&path)?;
-    let setting = |name, value: &Option<String>| control_setting(name, value.as_deref());
     let options = aibr::v4l::device::WebcamOptions {
-        exposure: setting("exposure", &a.exposure)?,
-        white_balance: setting("white-balance", &a.white_balance)?,
-        gain: setting("gain", &a.gain)?,
+        exposure: control_setting("exposure", &a.exposure)?,
+        white_balance: control_setting("white-balance", &a.white_balance)?,
+        gain: control_setting("gain", &a.gain)?,
         ..Default::default()
     };
     let policy = aibr::v4l::SettlePolicy {
-        frames,
+        frames: a.average,
         ..Default::default()
     };
     let camera = aibr::V4lCamera::open(Path::new(device), &calibration.camera, options, policy)?;
@@ -1465,7 +1462,10 @@ fn eval_model(m: ModelArg) -> EvalModel {
 
 fn eval(a: EvalArgs, given: &Given<'_>) -> Result<()> {
     if !a.strategy.contains(&StrategyArg::Active) {
-        if let Some(option) = given.first(&[&["capture_grid"][..], &PLANNER_OPTIONS[..]].concat()) {
+        if let Some(option) = given
+            .first(&["capture_grid"])
+            .or_else(|| given.first(&PLANNER_OPTIONS))
+        {
             bail!("{option} steers active capture, and --strategy evaluates uniform capture only");
         }
     }
