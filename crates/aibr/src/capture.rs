@@ -404,9 +404,29 @@ fn masks_of(views: &[LoadedView]) -> Result<Vec<GrayImage>> {
 /// The name [`reconstruct_views`] gives voxel coloring.
 pub(crate) const VOXEL_COLORING: &str = "voxel coloring";
 
+/// Why [`reconstruct_views`] would take space carving for these views in `volume` at `grid`:
+/// the error naming the first camera that is not above the volume, or `None` when every camera
+/// is above it and voxel coloring applies (and with it the [`ColoringParams`]).
+pub fn why_not_voxel_coloring(
+    views: &[LoadedView],
+    volume: &Aabb,
+    grid: usize,
+) -> Result<Option<aibr_voxel::Error>> {
+    let grid = VoxelGrid::with_resolution(*volume, grid)?;
+    let cameras: Vec<View<'_>> = views
+        .iter()
+        .map(|v| View {
+            camera: &v.camera,
+            image: &v.image,
+            mask: None,
+        })
+        .collect();
+    Ok(check_cameras_above(&grid, &cameras).err())
+}
+
 /// Reconstructs a model from loaded views: voxel coloring with `coloring` where every camera
-/// is above the volume, space carving otherwise. Returns the reconstruction and the
-/// algorithm's name.
+/// is above the volume, space carving otherwise ([`why_not_voxel_coloring`]). Returns the
+/// reconstruction and the algorithm's name.
 pub fn reconstruct_views(
     views: &[LoadedView],
     masks: &[GrayImage],

@@ -53,6 +53,7 @@ pub use capture::{
     CaptureParams, CaptureReport, FacesFirst, Progress, StageTimings, Strategy, capture,
     estimate_volume, pair_scores, reconstruct, reconstruct_loaded, reconstruct_refined,
     reconstruct_views, render_loaded, render_session, renderer_for, renderer_with, uniform_pans,
+    why_not_voxel_coloring,
 };
 pub use error::{Error, Result};
 pub use eval::{

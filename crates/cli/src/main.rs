@@ -499,7 +499,9 @@ struct ReconstructArgs {
     /// Voxels along the longest edge of the volume.
     #[arg(long, default_value_t = 128)]
     grid: usize,
-    /// The colour-consistency criterion.
+    /// Voxel coloring: the colour-consistency criterion. (Where a camera is not above the
+    /// volume, space carving reconstructs the session instead, with its own lenient
+    /// criterion, and refuses the options for voxel coloring.)
     #[arg(long, value_enum, default_value_t = CriterionArg::Angular)]
     criterion: CriterionArg,
     /// Voxel coloring: leave out, for a voxel on the boundary of the masks' visual hull, the
@@ -877,7 +879,7 @@ fn run(cli: Cli, matches: &ArgMatches) -> Result<()> {
     match cli.command {
         Command::Demo(a) => demo::run(a).map(drop),
         Command::Capture(a) => capture(a, &given),
-        Command::Reconstruct(a) => reconstruct(a),
+        Command::Reconstruct(a) => reconstruct(a, &given),
         Command::Render(a) => render(a),
         Command::Eval(a) => eval(a, &given),
         Command::Ptu(a) => ptu(a),
@@ -1873,9 +1875,20 @@ fn criterion(c: CriterionArg) -> Criterion {
     }
 }
 
-fn reconstruct(a: ReconstructArgs) -> Result<()> {
+fn reconstruct(a: ReconstructArgs, given: &Given<'_>) -> Result<()> {
     let session = Session::open(&a.session)?;
     let start = std::time::Instant::now();
+    let views = session.load_views()?;
+    if let Some(option) = given.first(&["criterion", "behind_hull", "sample_inset", "column_test"])
+    {
+        if let Some(why) = aibr::why_not_voxel_coloring(&views, &session.volume()?, a.grid)? {
+            bail!(
+                "{option} is for voxel coloring, which cannot reconstruct {}: {why} (run without \
+                 {option}: space carving takes none of voxel coloring's options)",
+                a.session.display()
+            );
+        }
+    }
     let mut coloring = ColoringParams {
         criterion: criterion(a.criterion),
         ..ColoringParams::default()
@@ -1889,7 +1902,6 @@ fn reconstruct(a: ReconstructArgs) -> Result<()> {
     if a.column_test {
         coloring.column_test = Some(ColumnTest::default());
     }
-    let views = session.load_views()?;
     let (rec, algorithm, refined) = if a.refine_tops {
         let (rec, algorithm, stats) = aibr::reconstruct_refined(
             &session,

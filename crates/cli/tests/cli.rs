@@ -618,6 +618,46 @@ fn active_capture_options_are_refused_with_uniform_capture_alone() -> TestResult
 }
 
 #[test]
+fn voxel_coloring_options_are_refused_where_space_carving_reconstructs() -> TestResult {
+    // A volume reaching above the cameras (about 0.3 m up): space carving reconstructs it.
+    let dir = temp("carved");
+    let tall = "--volume=-0.15,-0.15,0,0.15,0.15,3";
+    capture_ok(
+        &[
+            "--rig",
+            "sim:head",
+            "--strategy",
+            "uniform",
+            "--max",
+            "4",
+            tall,
+        ],
+        &dir,
+    )?;
+    let reconstruct = |options: &[&str]| aibr().arg("reconstruct").arg(&dir).args(options).output();
+    for option in [
+        &["--criterion", "classic"][..],
+        &["--behind-hull", "off"],
+        &["--sample-inset", "0.5"],
+        &["--column-test"],
+    ] {
+        let out = reconstruct(option)?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{option:?} accepted");
+        assert!(
+            err.contains(&format!("{} is for voxel coloring", option[0]))
+                && err.contains("view 0: camera centre"),
+            "{err}"
+        );
+        assert!(!dir.join("model.ply").exists());
+    }
+    let out = reconstruct(&["--grid", "32"])?;
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("space carving:"));
+    Ok(())
+}
+
+#[test]
 fn scene_render_writes_image_depth_and_mask() -> TestResult {
     let dir = temp("scene");
     std::fs::create_dir_all(&dir)?;
