@@ -191,7 +191,9 @@ impl EvalModel {
 /// Parameters of [`evaluate`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct EvalParams {
-    /// The capture: initial views, budget, refinement, capture grid.
+    /// The capture: initial views, budget, refinement, capture grid (its strategy is each
+    /// evaluated one's in turn). Uniform capture takes each checkpoint's views evenly, so
+    /// when it is evaluated alone only the budget is asked of the counts.
     pub capture: CaptureParams,
     /// View counts at which to measure, increasing (each at most the budget, and with
     /// [`Strategy::Active`] at least the initial count), e.g. 12, 24, 36, 48.
@@ -423,8 +425,18 @@ pub fn evaluate_rig<R: EvalRig>(
     progress: &mut dyn FnMut(String),
 ) -> Result<Vec<StrategyEval>> {
     // The counts first: a bad initial count or budget is named as such, not as a checkpoint
-    // out of range.
-    params.capture.validate()?;
+    // out of range. They are checked as the strategies evaluated use them: the initial count
+    // only where active capture is (uniform capture takes each checkpoint's views evenly).
+    let counted = if strategies.contains(&Strategy::Active) {
+        Strategy::Active
+    } else {
+        Strategy::Uniform
+    };
+    CaptureParams {
+        strategy: counted,
+        ..params.capture
+    }
+    .validate()?;
     if let Some(reason) = checkpoints_fault(params, strategies) {
         return Err(Error::InvalidParameter {
             name: "checkpoints",
@@ -911,10 +923,10 @@ mod tests {
     #[test]
     fn bad_parameters_are_named_before_anything_is_captured() {
         let work = std::env::temp_dir().join(format!("aibr-eval-refused-{}", std::process::id()));
-        // The parameter `evaluate` names when it refuses `params`.
-        let refused = |params: &EvalParams| match evaluate(
+        // The parameter `evaluate` names when it refuses `params` for `strategies`.
+        let refused_for = |strategies: &[Strategy], params: &EvalParams| match evaluate(
             "lambertian",
-            &[Strategy::Uniform],
+            strategies,
             params,
             &work,
             &mut |_| {},
@@ -923,6 +935,7 @@ mod tests {
             | Err(Error::Render(aibr_render::Error::InvalidParameter { name, .. })) => name,
             other => panic!("{other:?}"),
         };
+        let refused = |params: &EvalParams| refused_for(&[Strategy::Uniform], params);
         // The counts before the checkpoints.
         let counts = |initial: usize, max: usize| EvalParams {
             capture: CaptureParams {
@@ -933,8 +946,26 @@ mod tests {
             checkpoints: vec![initial, max],
             ..EvalParams::default()
         };
-        assert_eq!(refused(&counts(1, 48)), "initial");
-        assert_eq!(refused(&counts(12, 8)), "max");
+        let both = [Strategy::Active, Strategy::Uniform];
+        assert_eq!(refused_for(&both, &counts(1, 48)), "initial");
+        assert_eq!(refused_for(&both, &counts(12, 8)), "max");
+        // Uniform capture alone takes each checkpoint's views evenly: its budget is checked,
+        // not the initial count (these pass the counts and are refused by the renderer's
+        // parameters, checked next).
+        assert_eq!(refused(&counts(12, 2)), "max");
+        let mut render = RenderParams::default();
+        if let Some(r) = render.refine.as_mut() {
+            r.back_voxels = f64::NAN;
+        }
+        for (initial, max, with_active) in [(12, 8, "max"), (1, 48, "initial")] {
+            let params = EvalParams {
+                checkpoints: vec![4, max],
+                render,
+                ..counts(initial, max)
+            };
+            assert_eq!(refused(&params), "refine.back_voxels");
+            assert_eq!(refused_for(&both, &params), with_active);
+        }
         // Each set once, in order; and at least one.
         for checkpoints in [vec![12, 24, 24], vec![24, 12], vec![]] {
             let params = EvalParams {
@@ -964,10 +995,6 @@ mod tests {
             other => panic!("{other:?}"),
         }
         // The renderer's parameters before any view is captured.
-        let mut render = RenderParams::default();
-        if let Some(r) = render.refine.as_mut() {
-            r.back_voxels = f64::NAN;
-        }
         let bad_render = EvalParams {
             render,
             ..EvalParams::default()

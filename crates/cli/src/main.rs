@@ -385,7 +385,8 @@ struct EvalArgs {
     /// captured are the truth.
     #[arg(long, default_value = "sim:mirror")]
     rig: String,
-    /// Views captured uniformly first.
+    /// Views active capture takes uniformly first; also the first checkpoint, unless
+    /// --checkpoints gives them.
     #[arg(long, default_value_t = 12)]
     initial: usize,
     /// The budget of views (default 48; on a replay rig, three quarters of its views, so
@@ -401,8 +402,9 @@ struct EvalArgs {
     )]
     strategy: Vec<StrategyArg>,
     /// View counts to measure at, increasing (default: the initial count, then every 12 up to
-    /// the budget); each at most the budget and, with active capture, at least the initial
-    /// count.
+    /// the budget; a budget below the default initial count, which only uniform capture
+    /// accepts, is the one checkpoint); each at most the budget and, with active capture, at
+    /// least the initial count.
     #[arg(long, value_delimiter = ',')]
     checkpoints: Vec<usize>,
     /// Voxels along the longest edge of the models rendered from.
@@ -1366,7 +1368,12 @@ fn volume_source(spec: &str) -> Result<aibr::VolumeSource> {
 }
 
 /// One evaluation of `a` on the rig `spec`, its sessions in `work`.
-fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyEval>> {
+fn run_eval(
+    a: &EvalArgs,
+    given: &Given<'_>,
+    spec: &str,
+    work: &Path,
+) -> Result<Vec<aibr::StrategyEval>> {
     enum EvalOn {
         Sim(Box<aibr::SimRig>, String),
         Replay(aibr::ReplayRig, String),
@@ -1402,10 +1409,17 @@ fn run_eval(a: &EvalArgs, spec: &str, work: &Path) -> Result<Vec<aibr::StrategyE
         }
     }
     let checkpoints = if a.checkpoints.is_empty() {
-        let mut c = vec![a.initial];
-        let mut n = a.initial.div_ceil(12) * 12;
+        // Uniform capture alone may be given a budget below the default initial count, which
+        // it does not take; an --initial given is the first checkpoint as given (the library
+        // refuses one above the budget, as it refuses such a budget for active capture).
+        let first = match given.first(&["initial"]) {
+            Some(_) => a.initial,
+            None => a.initial.min(max),
+        };
+        let mut c = vec![first];
+        let mut n = first.div_ceil(12) * 12;
         while n <= max {
-            if n > a.initial {
+            if n > first {
                 c.push(n);
             }
             n += 12;
@@ -1470,11 +1484,18 @@ fn eval(a: EvalArgs, given: &Given<'_>) -> Result<()> {
         {
             bail!("{option} steers active capture, and --strategy evaluates uniform capture only");
         }
+        if !a.checkpoints.is_empty() {
+            if let Some(option) = given.first(&["initial"]) {
+                bail!(
+                    "{option} is active capture's initial views and the first checkpoint, and                      --strategy evaluates uniform capture only at the --checkpoints given"
+                );
+            }
+        }
     }
     if let Some(turns) = &a.turns {
-        return eval_turns(&a, &turns.0);
+        return eval_turns(&a, given, &turns.0);
     }
-    let results = run_eval(&a, &a.rig, &a.work)?;
+    let results = run_eval(&a, given, &a.rig, &a.work)?;
     let arc = arc_report(&a, &a.rig)?;
     if a.json {
         let mut out = serde_json::json!({
@@ -1575,7 +1596,7 @@ impl OverTurns {
 
 /// `aibr eval --turns`: the evaluation once per turn of the scene, then active - uniform
 /// over the turns.
-fn eval_turns(a: &EvalArgs, turns: &[f64]) -> Result<()> {
+fn eval_turns(a: &EvalArgs, given: &Given<'_>, turns: &[f64]) -> Result<()> {
     let scene = match a.rig.strip_prefix("sim:") {
         Some(scene) if !scene.contains('@') => scene,
         _ => bail!(
@@ -1600,7 +1621,7 @@ fn eval_turns(a: &EvalArgs, turns: &[f64]) -> Result<()> {
     }
     let mut runs = Vec::new();
     for (&turn, spec) in turns.iter().zip(specs) {
-        let results = run_eval(a, &spec, &a.work.join(format!("turn{turn}")))?;
+        let results = run_eval(a, given, &spec, &a.work.join(format!("turn{turn}")))?;
         if !a.json {
             println!("{spec}");
             print_eval_table(&results, arc_report(a, &spec)?.as_ref());

@@ -592,6 +592,17 @@ fn active_capture_options_are_refused_with_uniform_capture_alone() -> TestResult
             "{err}"
         );
     }
+    // Evaluating uniform capture alone at the checkpoints given, nothing takes --initial.
+    let out = aibr()
+        .args(eval)
+        .arg(&dir)
+        .args(["--checkpoints", "6", "--max", "6", "--initial", "4"])
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--initial is active capture's initial views"),
+        "{err}"
+    );
     assert!(!dir.exists());
     // A uniform budget below the default initial count needs no --initial.
     capture_ok(
@@ -599,6 +610,35 @@ fn active_capture_options_are_refused_with_uniform_capture_alone() -> TestResult
         &dir,
     )?;
     assert_eq!(count_views(&dir), 4);
+    // Nor does an evaluation of uniform capture alone, measured at its budget (the small
+    // evaluation without its --capture-grid, which only active capture takes, nor --initial).
+    let work = temp("uniform-eval");
+    let uniform_eval = [&SMALL_EVAL[..7], &SMALL_EVAL[9..]].concat();
+    let out = aibr()
+        .args(&uniform_eval[..3])
+        .args(&uniform_eval[5..])
+        .args(["--strategy", "uniform", "--max", "5", "--json", "--work"])
+        .arg(&work)
+        .output()?;
+    assert_success(&out);
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let checkpoints = &summary["results"][0]["checkpoints"];
+    assert_eq!(checkpoints[0]["views"], 5, "{summary}");
+    assert!(checkpoints[1].is_null(), "{summary}");
+    // An --initial given is the first checkpoint as given: above the budget, refused.
+    let out = aibr()
+        .args(&uniform_eval)
+        .args(["--strategy", "uniform", "--max", "3", "--work"])
+        .arg(&work)
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("each must be between 3 and the budget 3"),
+        "{err}"
+    );
+    for d in [dir, work] {
+        let _ = std::fs::remove_dir_all(d);
+    }
     Ok(())
 }
 
