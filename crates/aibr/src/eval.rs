@@ -361,7 +361,9 @@ pub struct StrategyEval {
 /// Runs each strategy on the synthetic rig `scene` (sessions under `work_dir`), and at every
 /// checkpoint renders every pan angle on the evaluation grid that was not captured, from the
 /// first views of the active session (or a uniform set of that size), and compares it with
-/// the ground truth inside the object mask.
+/// the ground truth inside the object mask. Strategies (at least one, each once), counts,
+/// checkpoints and the renderer's parameters are checked before anything is captured, and a
+/// bad one is named in [`Error::InvalidParameter`].
 ///
 /// Each ground-truth view is rendered once and kept for the whole evaluation (about 1.2 MB
 /// per evaluated angle at 640x480: some 380 MB for every degree of the default pan range).
@@ -424,6 +426,24 @@ pub fn evaluate_rig<R: EvalRig>(
     work_dir: &Path,
     progress: &mut dyn FnMut(String),
 ) -> Result<Vec<StrategyEval>> {
+    if strategies.is_empty() {
+        return Err(Error::InvalidParameter {
+            name: "strategies",
+            reason: "none given: nothing would be evaluated".into(),
+        });
+    }
+    if let Some(twice) = (1..strategies.len())
+        .find(|&i| strategies[..i].contains(&strategies[i]))
+        .map(|i| strategies[i])
+    {
+        return Err(Error::InvalidParameter {
+            name: "strategies",
+            reason: format!(
+                "{} is given twice: each strategy is evaluated once",
+                twice.name()
+            ),
+        });
+    }
     // The counts first: a bad initial count or budget is named as such, not as a checkpoint
     // out of range. They are checked as the strategies evaluated use them: the initial count
     // only where active capture is (uniform capture takes each checkpoint's views evenly).
@@ -936,6 +956,10 @@ mod tests {
             other => panic!("{other:?}"),
         };
         let refused = |params: &EvalParams| refused_for(&[Strategy::Uniform], params);
+        // Each strategy once, and at least one.
+        assert_eq!(refused_for(&[], &EvalParams::default()), "strategies");
+        let twice = [Strategy::Uniform, Strategy::Active, Strategy::Uniform];
+        assert_eq!(refused_for(&twice, &EvalParams::default()), "strategies");
         // The counts before the checkpoints.
         let counts = |initial: usize, max: usize| EvalParams {
             capture: CaptureParams {

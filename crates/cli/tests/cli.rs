@@ -1195,6 +1195,16 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         .arg(&work)
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("checkpoints"));
+    // A strategy given twice would be evaluated and reported twice.
+    let out = aibr()
+        .args(["eval", "--strategy", "active,uniform,active", "--work"])
+        .arg(&work)
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("invalid strategies: active is given twice"),
+        "{err}"
+    );
     // A bad count is named as itself, not as a checkpoint out of range.
     let out = aibr()
         .args(["eval", "--initial", "1", "--work"])
