@@ -1195,26 +1195,27 @@ fn eval_compares_strategies_on_ground_truth() -> TestResult {
         .arg(&work)
         .output()?;
     assert!(String::from_utf8_lossy(&out.stderr).contains("checkpoints"));
-    // A strategy given twice would be evaluated and reported twice.
-    let out = aibr()
-        .args(["eval", "--strategy", "active,uniform,active", "--work"])
-        .arg(&work)
-        .output()?;
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("invalid strategies: active is given twice"),
-        "{err}"
-    );
-    // A bad count is named as itself, not as a checkpoint out of range.
-    let out = aibr()
-        .args(["eval", "--initial", "1", "--work"])
-        .arg(&work)
-        .output()?;
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("invalid initial: at least 3 views are needed to start, not 1"),
-        "{err}"
-    );
+    // A strategy given twice (it would be evaluated and reported twice), and a bad count,
+    // named as itself rather than as a checkpoint out of range.
+    for (options, named) in [
+        (
+            ["--strategy", "active,uniform,active"],
+            "invalid strategies: active is given twice",
+        ),
+        (
+            ["--initial", "1"],
+            "invalid initial: at least 3 views are needed to start, not 1",
+        ),
+    ] {
+        let out = aibr()
+            .arg("eval")
+            .args(options)
+            .arg("--work")
+            .arg(&work)
+            .output()?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(named), "{err}");
+    }
     // A missing replay folder: its path and the reason, each said once.
     let missing = work.join("no-such-ring");
     let out = aibr()
