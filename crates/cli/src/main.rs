@@ -1487,7 +1487,8 @@ fn eval(a: EvalArgs, given: &Given<'_>) -> Result<()> {
         if !a.checkpoints.is_empty() {
             if let Some(option) = given.first(&["initial"]) {
                 bail!(
-                    "{option} is active capture's initial views and the first checkpoint, and                      --strategy evaluates uniform capture only at the --checkpoints given"
+                    "{option} is active capture's initial views and the first checkpoint, and \
+                     --strategy evaluates uniform capture only at the --checkpoints given"
                 );
             }
         }

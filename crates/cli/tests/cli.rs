@@ -600,7 +600,11 @@ fn active_capture_options_are_refused_with_uniform_capture_alone() -> TestResult
         .output()?;
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        !out.status.success() && err.contains("--initial is active capture's initial views"),
+        !out.status.success()
+            && err.contains(
+                "--initial is active capture's initial views and the first checkpoint, and \
+                 --strategy evaluates uniform capture only at the --checkpoints given"
+            ),
         "{err}"
     );
     assert!(!dir.exists());
