@@ -1484,13 +1484,15 @@ fn eval(a: EvalArgs, given: &Given<'_>) -> Result<()> {
         {
             bail!("{option} steers active capture, and --strategy evaluates uniform capture only");
         }
-        if !a.checkpoints.is_empty() {
-            if let Some(option) = given.first(&["initial"]) {
-                bail!(
-                    "{option} is active capture's initial views and the first checkpoint, and \
-                     --strategy evaluates uniform capture only at the --checkpoints given"
-                );
-            }
+        // Without --checkpoints, --initial is the first checkpoint.
+        if let Some(option) = given
+            .first(&["initial"])
+            .filter(|_| !a.checkpoints.is_empty())
+        {
+            bail!(
+                "{option} is active capture's initial views and the first checkpoint, and \
+                 --strategy evaluates uniform capture only at the --checkpoints given"
+            );
         }
     }
     if let Some(turns) = &a.turns {

@@ -617,10 +617,8 @@ fn active_capture_options_are_refused_with_uniform_capture_alone() -> TestResult
     // Nor does an evaluation of uniform capture alone, measured at its budget (the small
     // evaluation without its --capture-grid, which only active capture takes, nor --initial).
     let work = temp("uniform-eval");
-    let uniform_eval = [&SMALL_EVAL[..7], &SMALL_EVAL[9..]].concat();
     let out = aibr()
-        .args(&uniform_eval[..3])
-        .args(&uniform_eval[5..])
+        .args(small_eval_without(&["--capture-grid", "--initial"]))
         .args(["--strategy", "uniform", "--max", "5", "--json", "--work"])
         .arg(&work)
         .output()?;
@@ -631,7 +629,7 @@ fn active_capture_options_are_refused_with_uniform_capture_alone() -> TestResult
     assert!(checkpoints[1].is_null(), "{summary}");
     // An --initial given is the first checkpoint as given: above the budget, refused.
     let out = aibr()
-        .args(&uniform_eval)
+        .args(small_eval_without(&["--capture-grid"]))
         .args(["--strategy", "uniform", "--max", "3", "--work"])
         .arg(&work)
         .output()?;
@@ -924,6 +922,13 @@ const SMALL_EVAL: [&str; 11] = [
     "--step-deg",
     "40",
 ];
+
+/// [`SMALL_EVAL`] without `options`, each with its value.
+fn small_eval_without(options: &[&str]) -> Vec<&'static str> {
+    let (command, pairs) = SMALL_EVAL.split_at(1);
+    let kept = pairs.chunks(2).filter(|pair| !options.contains(&pair[0]));
+    command.iter().chain(kept.flatten()).copied().collect()
+}
 
 /// The JSON of a successful [`SMALL_EVAL`] with `options`, its sessions in `work`.
 fn small_eval_json(
