@@ -13,16 +13,24 @@
 //! [`capture()`](fn@capture); [`Session`]s on disk; and the comparison of strategies against
 //! the truth ([`evaluate`], [`evaluate_rig`]).
 //!
-//! ```no_run
+//! A short active capture of the synthetic mirror (12 uniform views, then two where the
+//! estimate says a rendering would be worst), at a coarse grid so that it runs in seconds:
+//!
+//! ```
 //! use aibr::{CaptureParams, SimRig, capture, new_session};
 //!
+//! let dir = std::env::temp_dir().join(format!("aibr-doc-{}", std::process::id()));
 //! let mut rig = SimRig::new("mirror")?;
 //! let calibration = rig.calibration()?;
-//! let params = CaptureParams { initial: 12, max: 24, ..CaptureParams::default() };
-//! let mut session = new_session(std::path::Path::new("mirror-session"), "sim:mirror", &rig, &calibration, &params)?;
+//! let params = CaptureParams { initial: 12, max: 14, grid: 48, ..CaptureParams::default() };
+//! let mut session = new_session(&dir, "sim:mirror", &rig, &calibration, &params)?;
 //! let report = capture(&mut rig, &mut session, &params, &mut |p| eprintln!("{p:?}"))?;
-//! println!("{} views: {:?}", report.pans.len(), report.pans);
-//! # Ok::<(), aibr::Error>(())
+//! // The session on disk holds every view captured, in the order taken.
+//! assert_eq!(report.pans.len(), 14);
+//! assert_eq!(session.file().views.len(), 14);
+//! println!("pan angles: {:?}", report.pans);
+//! std::fs::remove_dir_all(&dir)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
 //! # Conventions
