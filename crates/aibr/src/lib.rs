@@ -20,6 +20,7 @@
 //! use aibr::{CaptureParams, SimRig, capture, new_session};
 //!
 //! let dir = std::env::temp_dir().join(format!("aibr-doc-{}", std::process::id()));
+//! # let _ = std::fs::remove_dir_all(&dir); // left by a failed run of a process with this id
 //! let mut rig = SimRig::new("mirror")?;
 //! let calibration = rig.calibration()?;
 //! let params = CaptureParams { initial: 12, max: 14, grid: 48, ..CaptureParams::default() };
