@@ -22,10 +22,11 @@ mkdir -p "$target"
 yardstick=$target/host_yardstick
 gcc -O2 -pthread -o "$yardstick" "$root/docs/scripts/host_yardstick.c" -lm
 
-# The bench's executable, as cargo reports it.
+# The bench's executable, as cargo reports it (cargo's own messages, a compile error among
+# them, go to the terminal).
 bench=$(cd "$root" && cargo bench -p aibr-benches --bench voxel_coloring --no-run \
-    --message-format=json 2>/dev/null |
-    grep -o '"executable":"[^"]*voxel_coloring[^"]*"' | tail -1 | cut -d'"' -f4)
+    --message-format=json |
+    grep -o '"executable":"[^"]*voxel_coloring[^"]*"' | tail -1 | cut -d'"' -f4 || true)
 if [ -z "$bench" ] || [ ! -x "$bench" ]; then
     echo "could not build the voxel_coloring bench (cargo bench -p aibr-benches --no-run)" >&2
     exit 1
