@@ -1738,8 +1738,8 @@ fn eval_turns(a: &EvalArgs, given: &Given<'_>, turns: &[f64]) -> Result<()> {
                     .error
                     .map_or_else(|| format!("{:>7}", "-"), |e| format!("{e:>7.2}"));
                 let ahead = format!("{}/{}", o.ahead, o.turns);
-                // The extremes to a thousandth: issue 7's bound is 0.2 dB, and a lead of
-                // -0.2047 reads -0.20 to two decimals.
+                // The extremes to a thousandth, since they are read against bounds such as
+                // "no worse than 0.2 dB", and a lead of -0.2047 reads -0.20 to two decimals.
                 println!(
                     "{line} {:>+7.2} {error} {:>+7.3} {:>+7.3} {ahead:>7}",
                     o.mean, o.min, o.max
