@@ -540,6 +540,11 @@ struct ReconstructArgs {
     /// 2.02 voxels instead of 1.23; `docs/voxel.md`, "Walls for the steps").
     #[arg(long, requires = "refine_tops")]
     walls: bool,
+    /// Write model.ply as cubes (each voxel's faces toward its empty neighbours, closed and
+    /// facing out) instead of one coloured point a voxel: MeshLab and Blender then show a
+    /// solid. The file is about eight times as large.
+    #[arg(long)]
+    cubes: bool,
     /// Print a machine-readable summary on standard output.
     #[arg(long)]
     json: bool,
@@ -1950,7 +1955,7 @@ fn reconstruct(a: ReconstructArgs, given: &Given<'_>) -> Result<()> {
         &rec.model,
         &mut bytes,
         &PlyOptions {
-            cubes: false,
+            cubes: a.cubes,
             binary: true,
         },
     )?;

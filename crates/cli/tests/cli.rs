@@ -198,6 +198,15 @@ fn reconstruct_and_render_a_session() -> TestResult {
     assert!(summary["timings_ms"]["coloring_ms"].as_f64().is_some());
     let ply = std::fs::read(dir.join("model.ply"))?;
     assert!(ply.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
+    let header = |ply: &[u8]| String::from_utf8_lossy(&ply[..ply.len().min(400)]).into_owned();
+    let n = summary["voxels"].as_u64().ok_or("no voxel count")?;
+    assert!(header(&ply).contains(&format!("element vertex {n}\n")));
+    assert!(!header(&ply).contains("element face"));
+    // The same model as cubes: eight vertices a voxel, and faces.
+    assert_eq!(summary_with(&["--cubes"])?["voxels"], summary["voxels"]);
+    let cubes = std::fs::read(dir.join("model.ply"))?;
+    assert!(header(&cubes).contains(&format!("element vertex {}\n", 8 * n)));
+    assert!(header(&cubes).contains("element face "));
     // The plain sweep asks every view, and so keeps another model.
     let voxels = |args: &[&str]| -> Result<serde_json::Value, Box<dyn std::error::Error>> {
         Ok(summary_with(args)?["voxels"].clone())
