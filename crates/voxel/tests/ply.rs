@@ -4,7 +4,8 @@
 //!   which MeshLab's and Blender's own readers opened (`fixtures/ply/ply_peer.py`; what they
 //!   read is in `ply_peer.json`, checked here against the model);
 //! - for any model, every cube face written lies between an occupied voxel and an empty one
-//!   (or the grid's outside), faces away from the occupied one, and no such face is missing.
+//!   (or the grid's outside), faces away from the occupied one, and no such face is missing;
+//! - a writer that fails part-way gives its I/O error, typed, with nothing written after it.
 
 use std::collections::HashSet;
 use std::path::PathBuf;
@@ -184,6 +185,55 @@ fn write_ply_writes_the_files_the_peers_read() -> TestResult {
                 Some(true),
                 "meshlab, {name}"
             );
+        }
+    }
+    Ok(())
+}
+
+/// A writer that takes `room` bytes, then fails as a full disk does.
+struct FullAfter {
+    room: usize,
+    taken: Vec<u8>,
+}
+
+impl std::io::Write for FullAfter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.taken.len() >= self.room {
+            return Err(std::io::Error::from_raw_os_error(28)); // ENOSPC
+        }
+        let n = buf.len().min(self.room - self.taken.len());
+        self.taken.extend_from_slice(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A writer that fails anywhere, in the header, the vertices or the faces, gives the I/O error
+/// as `Error::Io` of the PLY, after writing only a prefix of the file.
+#[test]
+fn a_failing_writer_gives_the_io_error() -> TestResult {
+    let model = fixture()?;
+    for (name, options) in KINDS {
+        let mut whole = Vec::new();
+        write_ply(&model, &mut whole, &options)?;
+        for room in [0, 1, 100, whole.len() / 2, whole.len() - 1] {
+            let mut out = FullAfter {
+                room,
+                taken: Vec::new(),
+            };
+            match write_ply(&model, &mut out, &options) {
+                Err(aibr_voxel::Error::Io {
+                    what: "PLY",
+                    source,
+                }) => {
+                    assert_eq!(source.raw_os_error(), Some(28), "{name}, room {room}")
+                }
+                other => panic!("{name}, room {room}: {other:?}"),
+            }
+            assert!(whole.starts_with(&out.taken), "{name}, room {room}");
         }
     }
     Ok(())
