@@ -1,4 +1,4 @@
-//! PLY export, checked two ways:
+//! PLY export, checked three ways:
 //!
 //! - the files [`write_ply`] writes for a small fixed model are the ones in `fixtures/ply/`,
 //!   which MeshLab's and Blender's own readers opened (`fixtures/ply/ply_peer.py`; what they
@@ -52,8 +52,9 @@ const KINDS: [(&str, PlyOptions); 4] = [
 /// The fixture: 1 cm voxels on a 4 x 3 x 3 grid whose corner is off the origin, holding an L
 /// of four voxels on the floor, a column of two on its corner, and a voxel alone in the far
 /// corner of the grid (its faces on the grid's boundary are written too): 32 faces. No two
-/// voxels touch along an edge or at a corner only, so each piece is a closed two-manifold surface once the cubes' shared
-/// corners are merged, and the peers can measure its volume: 7 cm^3.
+/// voxels touch along an edge or at a corner only, so each piece is a closed two-manifold
+/// surface once the cubes' shared corners are merged, and the peers can measure its volume:
+/// 7 cm^3.
 fn fixture() -> Result<VoxelModel, Box<dyn std::error::Error>> {
     let bounds = Aabb::new(
         Point3::new(-0.02, -0.015, 0.1),
@@ -95,13 +96,40 @@ fn write_ply_writes_the_files_the_peers_read() -> TestResult {
     let golden: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(
         aibr_testdata::workspace_root().join("fixtures/ply/ply_peer.json"),
     )?)?;
-    let colours: HashSet<[u8; 3]> = model
-        .colour
-        .indexed_iter()
-        .filter(|((k, j, i), _)| model.is_occupied([*i, *j, *k]))
-        .map(|(_, c)| *c)
-        .collect();
     let n = model.occupied_count();
+    let s = model.grid().voxel_size();
+    // Every vertex the file should hold, as the script records them: [x, y, z] in
+    // micrometres and [r, g, b], sorted. A cube's corners are its centre +- s/2.
+    let expected = |cubes: bool| {
+        let mut out = Vec::new();
+        for ((k, j, i), &occupied) in model.occupied.indexed_iter() {
+            if !occupied {
+                continue;
+            }
+            let c = model.grid().centre([i, j, k]);
+            let rgb = model.colour[[k, j, i]].map(i64::from);
+            let corners: &[[f64; 3]] = if cubes {
+                &[
+                    [-1., -1., -1.],
+                    [1., -1., -1.],
+                    [-1., 1., -1.],
+                    [1., 1., -1.],
+                    [-1., -1., 1.],
+                    [1., -1., 1.],
+                    [-1., 1., 1.],
+                    [1., 1., 1.],
+                ]
+            } else {
+                &[[0., 0., 0.]]
+            };
+            for d in corners {
+                let um = |a: usize| ((c[a] + 0.5 * s * d[a]) * 1e6).round() as i64;
+                out.push([um(0), um(1), um(2), rgb[0], rgb[1], rgb[2]]);
+            }
+        }
+        out.sort_unstable();
+        out
+    };
     for (name, options) in KINDS {
         let mut bytes = Vec::new();
         write_ply(&model, &mut bytes, &options)?;
@@ -138,31 +166,26 @@ fn write_ply_writes_the_files_the_peers_read() -> TestResult {
         for (peer, faces) in [("meshlab", 2 * quads), ("blender", quads)] {
             assert_eq!(field(peer, "vertices")?, vertices as f64, "{peer}, {name}");
             assert_eq!(field(peer, "faces")?, faces as f64, "{peer}, {name}");
-            let read: HashSet<[u8; 3]> = peers[peer]["colours"]
+            let read: Vec<[i64; 6]> = peers[peer]["points"]
                 .as_array()
-                .ok_or("no colours")?
+                .ok_or("no points")?
                 .iter()
-                .map(|c| {
-                    let c = c.as_array().ok_or("a colour is not a list")?;
-                    let mut rgb = [0u8; 3];
-                    for (o, v) in rgb.iter_mut().zip(c) {
-                        *o = u8::try_from(v.as_u64().ok_or("not a byte")?)?;
+                .map(|p| {
+                    let p = p
+                        .as_array()
+                        .filter(|p| p.len() == 6)
+                        .ok_or("not 6 numbers")?;
+                    let mut v = [0i64; 6];
+                    for (o, x) in v.iter_mut().zip(p) {
+                        *o = x.as_i64().ok_or("not an integer")?;
                     }
-                    Ok(rgb)
+                    Ok(v)
                 })
                 .collect::<Result<_, Box<dyn std::error::Error>>>()?;
-            assert_eq!(read, colours, "{peer}, {name}: the vertex colours");
-            // The box the vertices span: the voxels' centres, or their cubes.
-            let lo = field(peer, "min_z")?;
-            let hi = field(peer, "max_z")?;
-            let (want_lo, want_hi) = if options.cubes {
-                (0.1, 0.13)
-            } else {
-                (0.105, 0.125)
-            };
-            assert!(
-                (lo - want_lo).abs() < 1e-6 && (hi - want_hi).abs() < 1e-6,
-                "{peer}, {name}"
+            assert_eq!(
+                read,
+                expected(options.cubes),
+                "{peer}, {name}: each vertex's position and colour"
             );
             if options.cubes {
                 // The volume the surface encloses, 7 cm^3, comes out whole only when every
