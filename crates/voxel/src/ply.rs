@@ -2,7 +2,8 @@
 //!
 //! Checked by their own readers: `fixtures/ply/ply_peer.py` opens what [`write_ply`] writes
 //! for a small model with pymeshlab and with Blender's Python module, and
-//! `tests/ply.rs` checks what they read (counts, colours, the enclosed volume of the cubes).
+//! `tests/ply.rs` checks what they read (every vertex's position and colour, the faces, the
+//! volume the cubes enclose).
 
 use std::io::Write;
 
