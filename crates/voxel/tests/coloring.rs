@@ -1,5 +1,7 @@
 //! Voxel coloring and space carving on synthetic turntable scenes with ground truth.
 
+mod common;
+
 use aibr_camera::{Angle, Camera, Distortion};
 use aibr_scene::{Frame, RenderOptions, Scene, catalogue};
 use aibr_voxel::metrics::geometry_score;
@@ -8,6 +10,7 @@ use aibr_voxel::{
     Reconstruction, TopRefinement, View, VoxelGrid, refine_tops, space_carving, visual_hull,
     voxel_coloring, voxel_coloring_reference, write_ply,
 };
+use common::{element_count, split_ply};
 use image::{GrayImage, RgbImage};
 use nalgebra::Point3;
 
@@ -613,11 +616,10 @@ fn ply_files_parse_back() -> TestResult {
 
     let mut ascii = Vec::new();
     write_ply(&out.model, &mut ascii, &PlyOptions::default())?;
-    let text = String::from_utf8(ascii)?;
-    let (header, body) = text.split_once("end_header\n").ok_or("no header end")?;
+    let (header, body) = split_ply(&ascii)?;
     assert!(header.starts_with("ply\nformat ascii 1.0\n"));
     assert!(header.contains(&format!("element vertex {n}\n")));
-    let rows: Vec<Vec<f64>> = body
+    let rows: Vec<Vec<f64>> = std::str::from_utf8(body)?
         .lines()
         .map(|l| {
             l.split_whitespace()
@@ -646,21 +648,12 @@ fn ply_files_parse_back() -> TestResult {
             binary: true,
         },
     )?;
-    let end = cubes
-        .windows(11)
-        .position(|w| w == b"end_header\n")
-        .ok_or("no header end")?
-        + 11;
-    let header = std::str::from_utf8(&cubes[..end])?;
+    let (header, body) = split_ply(&cubes)?;
     assert!(header.contains("format binary_little_endian 1.0"));
     assert!(header.contains(&format!("element vertex {}\n", 8 * n)));
-    let faces: usize = header
-        .lines()
-        .find_map(|l| l.strip_prefix("element face "))
-        .ok_or("no faces")?
-        .parse()?;
+    let faces = element_count(header, "face")?;
     // 15 bytes per vertex, 17 per quad face.
-    assert_eq!(cubes.len() - end, 8 * n * 15 + faces * 17);
+    assert_eq!(body.len(), 8 * n * 15 + faces * 17);
     assert!(faces >= out.model.surface_voxels().len());
     Ok(())
 }

@@ -15,6 +15,9 @@ use aibr_voxel::{PlyOptions, VoxelGrid, VoxelModel, write_ply};
 use nalgebra::Point3;
 use proptest::prelude::*;
 
+mod common;
+use common::{element_count, split_ply};
+
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 
 /// The four kinds of file, by their names in `fixtures/ply/`.
@@ -108,22 +111,15 @@ fn write_ply_writes_the_files_the_peers_read() -> TestResult {
             }
             let c = model.grid().centre([i, j, k]);
             let rgb = model.colour[[k, j, i]].map(i64::from);
-            let corners: &[[f64; 3]] = if cubes {
-                &[
-                    [-1., -1., -1.],
-                    [1., -1., -1.],
-                    [-1., 1., -1.],
-                    [1., 1., -1.],
-                    [-1., -1., 1.],
-                    [1., -1., 1.],
-                    [-1., 1., 1.],
-                    [1., 1., 1.],
-                ]
-            } else {
-                &[[0., 0., 0.]]
-            };
-            for d in corners {
-                let um = |a: usize| ((c[a] + 0.5 * s * d[a]) * 1e6).round() as i64;
+            // Corner `b` of a cube lies +s/2 along axis `a` where bit `a` of `b` is set.
+            let corners = if cubes { 0..8 } else { 0..1 };
+            for b in corners {
+                let d = |a: usize| match (cubes, b >> a & 1) {
+                    (false, _) => 0.0,
+                    (true, 0) => -0.5,
+                    (true, _) => 0.5,
+                };
+                let um = |a: usize| ((c[a] + s * d(a)) * 1e6).round() as i64;
                 out.push([um(0), um(1), um(2), rgb[0], rgb[1], rgb[2]]);
             }
         }
@@ -268,29 +264,19 @@ type Quad = [[i64; 3]; 4];
 /// Reads the faces of a binary cube PLY and the colour of each cube's first vertex, with the
 /// corners rounded to the grid's voxel corners (asserting that they lie on them).
 fn read_cubes(bytes: &[u8], grid: &VoxelGrid) -> Result<(Vec<Quad>, Vec<[u8; 3]>), String> {
-    let end = bytes
-        .windows(11)
-        .position(|w| w == b"end_header\n")
-        .ok_or("no end_header")?
-        + 11;
-    let header = std::str::from_utf8(&bytes[..end]).map_err(|e| e.to_string())?;
-    let count = |element: &str| -> Result<usize, String> {
-        header
-            .lines()
-            .find_map(|l| l.strip_prefix(&format!("element {element} ")))
-            .ok_or(format!("no element {element}"))?
-            .parse()
-            .map_err(|e| format!("element {element}: {e}"))
-    };
-    let (vertices, faces) = (count("vertex")?, count("face")?);
-    if bytes.len() != end + vertices * 15 + faces * 17 {
-        return Err(format!("{} bytes after the header", bytes.len() - end));
+    let (header, body) = split_ply(bytes)?;
+    let (vertices, faces) = (
+        element_count(header, "vertex")?,
+        element_count(header, "face")?,
+    );
+    if body.len() != vertices * 15 + faces * 17 {
+        return Err(format!("{} bytes after the header", body.len()));
     }
     let origin = grid.bounds().min;
     let s = grid.voxel_size();
     let mut corners = Vec::with_capacity(vertices);
     let mut colours = Vec::new();
-    for (n, v) in bytes[end..end + vertices * 15].chunks_exact(15).enumerate() {
+    for (n, v) in body[..vertices * 15].chunks_exact(15).enumerate() {
         let mut q = [0i64; 3];
         for (a, o) in q.iter_mut().enumerate() {
             let x = f32::from_le_bytes([v[4 * a], v[4 * a + 1], v[4 * a + 2], v[4 * a + 3]]);
@@ -308,7 +294,7 @@ fn read_cubes(bytes: &[u8], grid: &VoxelGrid) -> Result<(Vec<Quad>, Vec<[u8; 3]>
         }
     }
     let mut quads = Vec::with_capacity(faces);
-    for f in bytes[end + vertices * 15..].chunks_exact(17) {
+    for f in body[vertices * 15..].chunks_exact(17) {
         if f[0] != 4 {
             return Err(format!("a face of {} vertices", f[0]));
         }
