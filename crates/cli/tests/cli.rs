@@ -690,6 +690,7 @@ fn voxel_coloring_options_are_refused_where_space_carving_reconstructs() -> Test
     let out = reconstruct(&["--grid", "32"])?;
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("space carving:"));
+    let _ = std::fs::remove_dir_all(&dir);
     Ok(())
 }
 
