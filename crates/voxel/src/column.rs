@@ -257,7 +257,8 @@ where
         if scratch.colours.len() < self.min_views.max(2) {
             return false;
         }
-        // No candidate can be `margin` below a spread within it: most true tops stop here.
+        // No candidate can be `margin` below a spread within it: a fifth to a quarter of the
+        // tops stop here (`docs/voxel.md`, "The column test").
         if Spreads::at_most(&scratch.colours, test.margin) {
             return false;
         }

@@ -358,7 +358,8 @@ fn judge(
             .then(|| scratch.spreads.robust(&scratch.colours))
     };
     let own = spread_at(0, scratch)?;
-    // No candidate can be `margin` below a spread under it: most true tops stop here.
+    // No candidate can be `margin` below a spread under it: about half the tops stop here
+    // (`docs/voxel.md`, "Refining the tops").
     if own < params.margin {
         return None;
     }
