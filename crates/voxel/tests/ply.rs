@@ -79,8 +79,9 @@ fn fixture() -> Result<VoxelModel, Box<dyn std::error::Error>> {
     Ok(model)
 }
 
-fn fixture_path(name: &str) -> PathBuf {
-    aibr_testdata::workspace_root().join(format!("fixtures/ply/{name}.ply"))
+/// The folder of the PLY fixtures and what the peers read of them.
+fn fixtures() -> PathBuf {
+    aibr_testdata::workspace_root().join("fixtures/ply")
 }
 
 /// FNV-1a, 64 bits: `ply_peer.py` records it for each file it read, so that what the peers
@@ -96,9 +97,8 @@ fn fnv1a64(bytes: &[u8]) -> u64 {
 #[test]
 fn write_ply_writes_the_files_the_peers_read() -> TestResult {
     let model = fixture()?;
-    let golden: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(
-        aibr_testdata::workspace_root().join("fixtures/ply/ply_peer.json"),
-    )?)?;
+    let golden: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(fixtures().join("ply_peer.json"))?)?;
     let n = model.occupied_count();
     let s = model.grid().voxel_size();
     // Every vertex the file should hold, as the script records them: [x, y, z] in
@@ -111,15 +111,14 @@ fn write_ply_writes_the_files_the_peers_read() -> TestResult {
             }
             let c = model.grid().centre([i, j, k]);
             let rgb = model.colour[[k, j, i]].map(i64::from);
-            // Corner `b` of a cube lies +s/2 along axis `a` where bit `a` of `b` is set.
-            let corners = if cubes { 0..8 } else { 0..1 };
-            for b in corners {
-                let d = |a: usize| match (cubes, b >> a & 1) {
-                    (false, _) => 0.0,
-                    (true, 0) => -0.5,
-                    (true, _) => 0.5,
+            // A point is the centre; corner `b` of a cube lies `half` past it along axis `a`
+            // where bit `a` of `b` is set, and `half` short of it where it is not.
+            let (corners, half) = if cubes { (8, 0.5 * s) } else { (1, 0.0) };
+            for b in 0..corners {
+                let um = |a: usize| {
+                    let d = if b >> a & 1 == 1 { half } else { -half };
+                    ((c[a] + d) * 1e6).round() as i64
                 };
-                let um = |a: usize| ((c[a] + s * d(a)) * 1e6).round() as i64;
                 out.push([um(0), um(1), um(2), rgb[0], rgb[1], rgb[2]]);
             }
         }
@@ -129,7 +128,7 @@ fn write_ply_writes_the_files_the_peers_read() -> TestResult {
     for (name, options) in KINDS {
         let mut bytes = Vec::new();
         write_ply(&model, &mut bytes, &options)?;
-        let path = fixture_path(name);
+        let path = fixtures().join(format!("{name}.ply"));
         if std::env::var("AIBR_WRITE_PLY_FIXTURES").is_ok_and(|v| v == "1") {
             std::fs::write(&path, &bytes)?;
             continue;
