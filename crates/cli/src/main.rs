@@ -255,6 +255,12 @@ struct RefineArgs {
     /// (docs/render.md, "Bicubic sampling").
     #[arg(long, value_enum, default_value_t = SamplingArg::Bilinear)]
     sampling: SamplingArg,
+    /// How far behind a source's own depth a surface point may lie and still count as seen by
+    /// it, voxels (default 2, at most 64). 4 renders every catalogue scene as well or up to
+    /// 0.10 dB better, and with --reach 6 up to 0.44 dB better (docs/render.md, "The occlusion
+    /// tolerance").
+    #[arg(long, value_name = "VOXELS", value_parser = parse_occlusion_tolerance)]
+    occlusion_tolerance: Option<f64>,
 }
 
 /// How the renderer reads a view between its pixels.
@@ -292,12 +298,16 @@ impl RefineArgs {
             SamplingArg::Bilinear => aibr::render::Sampling::Bilinear,
             SamplingArg::Bicubic => aibr::render::Sampling::Bicubic,
         };
+        params.occlusion_tolerance_voxels = self
+            .occlusion_tolerance
+            .unwrap_or(params.occlusion_tolerance_voxels);
         params
     }
 
     /// Records the search the renderer takes in a JSON object: `reach_voxels`,
     /// `refine_steps`, `reach_penalty` and `refine_pair` (null without the refinement),
-    /// `reflections` (true or false) and `sampling` ("bilinear" or "bicubic").
+    /// `reflections` (true or false), `sampling` ("bilinear" or "bicubic") and
+    /// `occlusion_tolerance_voxels`.
     fn record(&self, out: &mut serde_json::Value) {
         let params = self.render_params();
         let r = params.refine;
@@ -313,6 +323,10 @@ impl RefineArgs {
                 aibr::render::Sampling::Bicubic => "bicubic",
             };
             map.insert("sampling".into(), sampling.into());
+            map.insert(
+                "occlusion_tolerance_voxels".into(),
+                params.occlusion_tolerance_voxels.into(),
+            );
         }
     }
 }
@@ -745,14 +759,18 @@ fn parse_arc(text: &str) -> std::result::Result<aibr::ObjectArc, String> {
     })
 }
 
+/// A number from 0 to `most`, or the message that says what was expected (`what`: "a number
+/// of voxels", "a number").
+fn number_up_to(text: &str, most: f64, what: &str) -> std::result::Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if (0.0..=most).contains(&v) => Ok(v),
+        _ => Err(format!("{text:?}: expected {what} from 0 to {most}")),
+    }
+}
+
 /// `--reach`: voxels behind the model's surface, from 0 to [`MAX_REACH`].
 fn parse_reach(text: &str) -> std::result::Result<f64, String> {
-    match text.trim().parse::<f64>() {
-        Ok(v) if (0.0..=MAX_REACH).contains(&v) => Ok(v),
-        _ => Err(format!(
-            "{text:?}: expected a number of voxels from 0 to {MAX_REACH}"
-        )),
-    }
+    number_up_to(text, MAX_REACH, "a number of voxels")
 }
 
 /// `--refine-steps`: the depths the renderer takes, from 2 to its most.
@@ -768,11 +786,16 @@ fn parse_refine_steps(text: &str) -> std::result::Result<usize, String> {
 
 /// `--reach-penalty`: from 0 to the renderer's largest.
 fn parse_penalty(text: &str) -> std::result::Result<f64, String> {
-    let most = aibr::render::MAX_REFINE_PENALTY;
-    match text.trim().parse::<f64>() {
-        Ok(v) if (0.0..=most).contains(&v) => Ok(v),
-        _ => Err(format!("{text:?}: expected a number from 0 to {most}")),
-    }
+    number_up_to(text, aibr::render::MAX_REFINE_PENALTY, "a number")
+}
+
+/// `--occlusion-tolerance`: voxels, from 0 to the renderer's largest.
+fn parse_occlusion_tolerance(text: &str) -> std::result::Result<f64, String> {
+    number_up_to(
+        text,
+        aibr::render::MAX_OCCLUSION_TOLERANCE,
+        "a number of voxels",
+    )
 }
 
 /// The deepest `--reach`, voxels: half the default grid's edge.

@@ -4,8 +4,8 @@
 //! (default: every catalogue scene; 12, 24 and 48 views; 128^3 models). Writes a render
 //! beside its ground truth for each scene to the temporary folder.
 //!
-//! Environment: `VIEWS=12,24` chooses the view counts; `K` and `RES` set the renderer's `k`
-//! and `resolution_weight`; `TRUEMODEL=1` renders from the true scene voxelised at 128^3
+//! Environment: `VIEWS=12,24` chooses the view counts; `K`, `RES` and `OCC` set the
+//! renderer's `k`, `resolution_weight` and `occlusion_tolerance_voxels`; `TRUEMODEL=1` renders from the true scene voxelised at 128^3
 //! instead of the reconstruction, to separate geometry error from rendering error;
 //! `CRITERION=classic:T` or `CRITERION=angular:T:W` (grey levels, degrees) replaces voxel
 //! coloring's default criterion.
@@ -145,6 +145,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             if let Some(r) = std::env::var("RES").ok().and_then(|k| k.parse().ok()) {
                 params.resolution_weight = r;
+            }
+            if let Ok(occ) = std::env::var("OCC") {
+                params.occlusion_tolerance_voxels = occ.parse()?;
             }
             if let Ok(spec) = std::env::var("REFINE") {
                 params.refine = refinement(&spec)?;

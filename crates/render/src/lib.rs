@@ -59,6 +59,7 @@ pub use error::{Error, Result};
 pub use exr_io::write_depth_exr;
 pub use reflection::{MirrorCounts, MirrorTally, Reflections};
 pub use renderer::{
-    Coverage, DepthRefinement, MAX_CANDIDATES, MAX_FILL_CLOSING, MAX_REFINE_PENALTY,
-    MAX_REFINE_STEPS, RenderParams, RenderedView, Renderer, Sampling, SourceView,
+    Coverage, DepthRefinement, MAX_CANDIDATES, MAX_FILL_CLOSING, MAX_OCCLUSION_TOLERANCE,
+    MAX_REFINE_PENALTY, MAX_REFINE_STEPS, RenderParams, RenderedView, Renderer, Sampling,
+    SourceView,
 };
